@@ -1,0 +1,44 @@
+// Shared pieces of the stand-in participants: command-line parsing, the test surface and the oracle.
+#pragma once
+
+#include "railcosim/InterfaceMesh.hpp"
+
+#include <cmath>
+#include <map>
+#include <string>
+#include <vector>
+
+namespace railcosim::dummy {
+
+/// "--key value" pairs and "--flag" switches; unknown keys are an error so typos do not pass silently.
+class Options {
+public:
+  Options(int argc, char** argv, const std::map<std::string, std::string>& defaults, const std::string& usage);
+  std::string text(const std::string& key) const;
+  double number(const std::string& key) const;
+  long integer(const std::string& key) const;
+  bool flag(const std::string& key) const;
+
+private:
+  std::map<std::string, std::string> values_;
+};
+
+/// Flat rectangular surface in the plane z = 0: nx x ny nodes spaced `spacing` m, two triangles per
+/// cell, counter-clockwise seen from +z (normal +z, towards the particles above).
+InterfaceMesh rectangularSurface(long nx, long ny, double spacing);
+
+/// Node grid close to `nodes` in total (nx = ny = round(sqrt(nodes)), at least 2).
+long sideForNodes(long nodes);
+
+/// Each FEM node carries a vertical spring-mass: m u'' + k u = F_z. Its state is advanced over a
+/// window with constant force by the exact solution, so the DEM side can check the closed form
+/// u(t) = (F/k) (1 - cos(w (t - t0))) from rest at t0 to round-off.
+struct SpringMass {
+  double mass = 1.0;          // kg per node
+  double stiffness = 1.0e6;   // N/m per node
+  double omega() const { return std::sqrt(stiffness / mass); }
+  /// Advances (u, v) by dt under constant force; returns the acceleration at the end.
+  double advance(double& displacement, double& velocity, double force, double dt) const;
+};
+
+} // namespace railcosim::dummy

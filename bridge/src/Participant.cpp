@@ -1,0 +1,529 @@
+// FemParticipant / DemParticipant: handshake, per-window state machine, error reporting and statistics.
+#include "railcosim/Participant.hpp"
+#include "railcosim/Error.hpp"
+#include "railcosim/Log.hpp"
+
+#include "com/Channel.hpp"
+#include "config/ParticipantConfig.hpp"
+#include "protocol/Message.hpp"
+
+#include <chrono>
+#include <cmath>
+#include <exception>
+#include <sstream>
+
+namespace railcosim {
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+double secondsSince(Clock::time_point start) {
+  return std::chrono::duration<double>(Clock::now() - start).count();
+}
+
+std::string formatSeconds(double seconds) {
+  std::ostringstream text;
+  text << seconds << " s";
+  return text.str();
+}
+
+/// What both participants share: the channel, names, state flags, statistics and error wording.
+class Link {
+public:
+  Link(ParticipantConfig config, protocol::Role role)
+      : config_(std::move(config)), role_(role), peerRole_(role == protocol::Role::Fem ? "DEM" : "FEM"),
+        uncaughtAtStart_(std::uncaught_exceptions()) {
+    config::validate(config_, role == protocol::Role::Fem ? "fem" : "dem");
+  }
+
+  ~Link() { shutDown(); }
+
+  const ParticipantConfig& config() const { return config_; }
+  BridgeStatistics& statistics() { return statistics_; }
+  bool open() const { return channel_ != nullptr; }
+  bool handshakeDone() const { return handshakeDone_; }
+  void setHandshakeDone() { handshakeDone_ = true; }
+  const std::string& peerName() const { return peerName_; }
+  std::size_t nodeCount() const { return nodeCount_; }
+  void setNodeCount(std::size_t nodes) { nodeCount_ = nodes; }
+  bool peerFinalized() const { return peerFinalized_; }
+  void setPeerFinalized() { peerFinalized_ = true; }
+
+  std::string self() const { return config_.name; }
+  std::string peerLabel() const {
+    return peerName_.empty() ? "the " + peerRole_ + " participant" : "peer '" + peerName_ + "'";
+  }
+
+  void openChannel() {
+    com::ChannelOptions options;
+    options.endpoint = config_.endpoint;
+    options.side = role_ == protocol::Role::Fem ? com::Side::Bind : com::Side::Connect;
+    options.heartbeatSeconds = config_.heartbeatSeconds;
+    // Long enough to flush a final message to a live peer, short enough that closing never hangs.
+    options.lingerMilliseconds = static_cast<int>(std::min(1000.0, config_.timeoutSeconds * 1000.0));
+    try {
+      channel_ = std::make_unique<com::Channel>(options);
+    } catch (const Error& error) {
+      throw Error(self() + ": " + error.what());
+    }
+  }
+
+  void requireUsable(const char* call) const {
+    if (closed_) throw Error(self() + ": " + call + " called after finalize() or abort()");
+    if (!handshakeDone_) throw Error(self() + ": " + call + " called before initialize() completed");
+  }
+
+  void fail(const std::string& message) const { throw Error(self() + ": " + message); }
+
+  /// Sends one encoded message; `what` describes it for errors ("kinematics of window 3").
+  void send(std::vector<std::uint8_t>&& bytes, const std::string& what, bool countAsExchange) {
+    const std::size_t size = bytes.size();
+    com::Timing timing;
+    const com::Status status = channel_->send(std::move(bytes), config_.timeoutSeconds, timing);
+    statistics_.transferSeconds += timing.transferSeconds;
+    statistics_.waitSeconds += timing.waitSeconds;
+    if (status == com::Status::Ok) {
+      if (countAsExchange) {
+        ++statistics_.exchanges;
+        statistics_.bytes += size;
+      }
+      return;
+    }
+    if (status == com::Status::PeerDisconnected) {
+      // A peer that finalized and closed before reading this message is a normal end, not a loss
+      // (e.g. predictive order: the FEM side always sends one window ahead).
+      if (finalizeIsPending()) {
+        log(LogLevel::Debug, self() + ": " + peerLabel() + " finalized before reading " + what + "; dropped");
+        return;
+      }
+      closed_ = true;
+      throw PeerLostError(disconnectedMessage("sending " + what));
+    }
+    closed_ = true;
+    std::ostringstream text;
+    text << self() << ": could not hand " << what << " to " << peerLabel() << " on " << config_.endpoint
+         << " within " << formatSeconds(config_.timeoutSeconds) << " (the peer does not read its messages); "
+         << "raise timeoutSeconds if the " << peerRole_ << " side is just slow";
+    throw PeerLostError(text.str());
+  }
+
+  /// After a disconnection: is the peer's Finalize (or Abort) already delivered but unread?
+  bool finalizeIsPending() {
+    com::Frame frame;
+    com::Timing timing;
+    if (channel_->receive(frame, 0.0, timing) != com::Status::Ok) return false;
+    protocol::Header header;
+    try {
+      header = protocol::decodeHeader(frame.data(), frame.size());
+    } catch (const ProtocolError&) {
+      return false;
+    }
+    if (header.type == protocol::MessageType::Abort) {
+      closed_ = true;
+      std::string reason;
+      try {
+        reason = protocol::decodeAbort(header, frame.data());
+      } catch (const ProtocolError& error) {
+        reason = std::string("(unreadable reason: ") + error.what() + ")";
+      }
+      throw PeerLostError(self() + ": " + peerLabel() + " aborted the run: " + reason);
+    }
+    if (header.type != protocol::MessageType::Finalize) return false;
+    peerFinalized_ = true;
+    return true;
+  }
+
+  /// Receives and header-checks one message; Abort from the peer becomes PeerLostError.
+  /// `waitingFor` is said in errors, e.g. "forces of window 42".
+  std::pair<com::Frame, protocol::Header> receive(const std::string& waitingFor, bool countAsExchange) {
+    com::Frame frame;
+    com::Timing timing;
+    const com::Status status = channel_->receive(frame, config_.timeoutSeconds, timing);
+    statistics_.transferSeconds += timing.transferSeconds;
+    statistics_.waitSeconds += timing.waitSeconds;
+    if (status == com::Status::PeerDisconnected) {
+      closed_ = true;
+      throw PeerLostError(disconnectedMessage("waiting for " + waitingFor));
+    }
+    if (status == com::Status::Timeout) {
+      closed_ = true;
+      std::ostringstream text;
+      text << self() << ": no message from " << peerLabel() << " on " << config_.endpoint << " within "
+           << formatSeconds(config_.timeoutSeconds) << " while waiting for " << waitingFor << "; ";
+      if (!channel_->peerSeen()) {
+        text << "no " << peerRole_ << " participant ever connected (start it with the same endpoint)";
+      } else {
+        text << "the " << peerRole_ << " side is connected but silent (stuck, or slower than the timeout)";
+      }
+      text << "; raise timeoutSeconds (now " << config_.timeoutSeconds << ") if it is just slow";
+      throw PeerLostError(text.str());
+    }
+    const auto decodeStart = Clock::now();
+    protocol::Header header;
+    try {
+      header = protocol::decodeHeader(frame.data(), frame.size());
+    } catch (const ProtocolError& error) {
+      rejectPeer(error.what(), waitingFor);
+    }
+    statistics_.encodeSeconds += secondsSince(decodeStart);
+    if (header.type == protocol::MessageType::Abort) {
+      std::string reason;
+      try {
+        reason = protocol::decodeAbort(header, frame.data());
+      } catch (const ProtocolError& error) {
+        reason = std::string("(unreadable reason: ") + error.what() + ")";
+      }
+      closed_ = true;
+      throw PeerLostError(self() + ": " + peerLabel() + " aborted the run while this side was waiting for " +
+                          waitingFor + ": " + reason);
+    }
+    if (countAsExchange) {
+      ++statistics_.exchanges;
+      statistics_.bytes += frame.size();
+    }
+    return {std::move(frame), header};
+  }
+
+  /// A message broke the protocol: tell the peer (best effort), close, and throw ProtocolError.
+  [[noreturn]] void rejectPeer(const std::string& problem, const std::string& waitingFor) {
+    const std::string message =
+        self() + ": rejected a message from " + peerLabel() + " while waiting for " + waitingFor + ": " + problem;
+    abortQuietly(message);
+    throw ProtocolError(message);
+  }
+
+  /// Runs a body decoder; its ProtocolError is reported to the peer and rethrown with context.
+  template <class Decode>
+  auto decodeBody(Decode decode, const std::string& waitingFor) -> decltype(decode()) {
+    const auto start = Clock::now();
+    try {
+      auto result = decode();
+      statistics_.encodeSeconds += secondsSince(start);
+      return result;
+    } catch (const ProtocolError& error) {
+      rejectPeer(error.what(), waitingFor);
+    }
+  }
+
+  [[noreturn]] void unexpected(const protocol::Header& header, const std::string& expected) {
+    rejectPeer("expected " + expected + ", got " + protocol::describe(header), expected);
+  }
+
+  template <class Encode>
+  std::vector<std::uint8_t> encode(Encode encode) {
+    const auto start = Clock::now();
+    auto bytes = encode();
+    statistics_.encodeSeconds += secondsSince(start);
+    return bytes;
+  }
+
+  std::string disconnectedMessage(const std::string& doing) const {
+    std::ostringstream text;
+    text << self() << ": " << peerLabel() << " disconnected from " << config_.endpoint << " while " << doing
+         << "; the " << peerRole_ << " process probably died or froze (no heartbeat for "
+         << 3 * config_.heartbeatSeconds << " s) - check its log";
+    return text.str();
+  }
+
+  /// Sends Abort if the peer may still listen; never throws.
+  void abortQuietly(const std::string& reason) {
+    if (channel_ && !closed_ && channel_->peerSeen() && !channel_->peerDisconnected()) {
+      try {
+        com::Timing timing;
+        channel_->send(protocol::encodeAbort(0, reason), std::min(config_.timeoutSeconds, 2.0), timing);
+      } catch (const std::exception& error) {
+        log(LogLevel::Warning, self() + ": could not send Abort to " + peerLabel() + ": " + error.what());
+      }
+    }
+    closed_ = true;
+    if (channel_) channel_->close();
+  }
+
+  /// Normal end: Finalize to a live peer, then close. Never throws (called from destructors).
+  void finalizeQuietly(std::uint64_t window) {
+    if (closed_) {
+      if (channel_) channel_->close();
+      return;
+    }
+    if (std::uncaught_exceptions() > uncaughtAtStart_) {
+      // Destroyed while an exception propagates: the run did not end normally, so say so.
+      abortQuietly(self() + " was shut down by an error (see its log)");
+      return;
+    }
+    if (channel_ && handshakeDone_ && !peerFinalized_ && !channel_->peerDisconnected()) {
+      try {
+        com::Timing timing;
+        const auto status =
+            channel_->send(protocol::encodeFinalize(window), std::min(config_.timeoutSeconds, 2.0), timing);
+        if (status != com::Status::Ok) {
+          log(LogLevel::Info, self() + ": " + peerLabel() + " was gone before Finalize could be sent");
+        }
+      } catch (const std::exception& error) {
+        log(LogLevel::Warning, self() + ": could not send Finalize: " + error.what());
+      }
+    }
+    closed_ = true;
+    if (channel_) channel_->close();
+  }
+
+  void shutDown() {
+    try {
+      if (channel_) channel_->close();
+    } catch (...) {
+      // Closing must not throw from a destructor; nothing useful is left to report.
+    }
+  }
+
+  void setPeerName(const std::string& name) { peerName_ = name; }
+
+  /// Hello checks shared by both sides: role and names.
+  void checkHello(const protocol::Hello& hello, protocol::Role expectedRole, const std::string& waitingFor) {
+    if (hello.role != expectedRole) {
+      rejectPeer("participant '" + hello.participantName + "' announced role " + protocol::toString(hello.role) +
+                     " but this side is " + protocol::toString(role_) + "; two " +
+                     (role_ == protocol::Role::Fem ? std::string("FEM") : std::string("DEM")) +
+                     " participants cannot couple - start one FEM (binds) and one DEM (connects) participant",
+                 waitingFor);
+    }
+    if (hello.participantName == config_.name) {
+      rejectPeer("both participants are named '" + config_.name + "'; give them distinct names so errors and logs "
+                 "say which side is meant", waitingFor);
+    }
+    setPeerName(hello.participantName);
+  }
+
+  protocol::Hello ownHello() const {
+    protocol::Hello hello;
+    hello.role = role_;
+    hello.participantName = config_.name;
+    hello.unitSystem = "SI";
+    return hello;
+  }
+
+  void markClosed() { closed_ = true; }
+  bool closed() const { return closed_; }
+
+private:
+  ParticipantConfig config_;
+  protocol::Role role_;
+  std::string peerRole_;
+  std::string peerName_;
+  std::unique_ptr<com::Channel> channel_;
+  BridgeStatistics statistics_;
+  std::size_t nodeCount_ = 0;
+  bool handshakeDone_ = false;
+  bool peerFinalized_ = false;
+  bool closed_ = false;
+  int uncaughtAtStart_ = 0;
+};
+
+std::string windowText(const char* what, std::uint64_t window) {
+  return std::string(what) + " of window " + std::to_string(window);
+}
+
+} // namespace
+
+// ---------------------------------------------------------------------------------------------- FEM side
+
+struct FemParticipant::Impl {
+  explicit Impl(ParticipantConfig config) : link(std::move(config), protocol::Role::Fem) {}
+  Link link;
+  std::uint64_t nextForcesWindow = 0;      // window of the next Forces message expected
+  std::uint64_t nextKinematicsWindow = 0;  // window of the next Kinematics message to send
+};
+
+FemParticipant::FemParticipant(ParticipantConfig config) : impl_(std::make_unique<Impl>(std::move(config))) {}
+
+FemParticipant::~FemParticipant() { impl_->link.finalizeQuietly(impl_->nextKinematicsWindow); }
+
+void FemParticipant::initialize(const InterfaceMesh& mesh, double femTimeStep, const NodalKinematics& initial) {
+  Link& link = impl_->link;
+  if (link.open()) link.fail("initialize() called twice");
+  try {
+    mesh.validate();
+    initial.validate(mesh.nodeCount());
+  } catch (const Error& error) {
+    link.fail(std::string("initialize: ") + error.what());
+  }
+  if (!(femTimeStep > 0.0) || !std::isfinite(femTimeStep)) {
+    link.fail("initialize: femTimeStep = " + std::to_string(femTimeStep) + " s; it must be positive and finite");
+  }
+  link.openChannel();
+  const std::string waitingFor = "the Hello of a DEM participant";
+  auto [frame, header] = link.receive(waitingFor, false);
+  if (header.type != protocol::MessageType::Hello) link.unexpected(header, "Hello");
+  const protocol::Hello hello = link.decodeBody([&] { return protocol::decodeHello(header, frame.data()); }, waitingFor);
+  link.checkHello(hello, protocol::Role::Dem, waitingFor);
+  link.send(link.encode([&] { return protocol::encodeHello(link.ownHello()); }), "the Hello", false);
+  link.send(link.encode([&] { return protocol::encodeMesh(mesh, femTimeStep, initial); }), "the interface mesh", false);
+  link.setNodeCount(mesh.nodeCount());
+  link.setHandshakeDone();
+  log(LogLevel::Info, link.self() + ": coupled with DEM participant '" + hello.participantName + "' on " +
+                          link.config().endpoint + " (" + std::to_string(mesh.nodeCount()) + " interface nodes)");
+}
+
+std::optional<ForceMessage> FemParticipant::receiveForces() {
+  Link& link = impl_->link;
+  if (link.peerFinalized()) return std::nullopt;
+  link.requireUsable("receiveForces()");
+  const std::string waitingFor = windowText("forces", impl_->nextForcesWindow);
+  auto [frame, header] = link.receive(waitingFor, true);
+  if (header.type == protocol::MessageType::Finalize) {
+    link.decodeBody([&] { protocol::decodeFinalize(header); return 0; }, waitingFor);
+    link.setPeerFinalized();
+    log(LogLevel::Info, link.self() + ": " + link.peerLabel() + " finalized the run after " +
+                            std::to_string(impl_->nextForcesWindow) + " windows");
+    return std::nullopt;
+  }
+  const std::string expected = "Forces for window " + std::to_string(impl_->nextForcesWindow);
+  if (header.type != protocol::MessageType::Forces || header.window != impl_->nextForcesWindow) {
+    link.unexpected(header, expected);
+  }
+  ForceMessage message = link.decodeBody(
+      [&] { return protocol::decodeForces(header, frame.data(), link.nodeCount()); }, waitingFor);
+  ++impl_->nextForcesWindow;
+  return message;
+}
+
+void FemParticipant::sendKinematics(std::uint64_t window, const NodalKinematics& kinematics) {
+  Link& link = impl_->link;
+  if (link.peerFinalized()) {
+    throw PeerLostError(link.self() + ": " + link.peerLabel() + " already finalized the run; kinematics of window " +
+                        std::to_string(window) + " have no receiver");
+  }
+  link.requireUsable("sendKinematics()");
+  if (window != impl_->nextKinematicsWindow) {
+    link.fail("sendKinematics: window " + std::to_string(window) + " but window " +
+              std::to_string(impl_->nextKinematicsWindow) + " is next; windows go 0, 1, 2, ... without gaps");
+  }
+  // Just-in-time sends kinematics of window i after its forces, predictive one window before them.
+  if (window > impl_->nextForcesWindow) {
+    link.fail("sendKinematics: window " + std::to_string(window) + " is more than one window ahead of the forces "
+              "received so far (" + std::to_string(impl_->nextForcesWindow) + " windows)");
+  }
+  try {
+    kinematics.validate(link.nodeCount());
+  } catch (const Error& error) {
+    link.fail("sendKinematics(window " + std::to_string(window) + "): " + error.what());
+  }
+  link.send(link.encode([&] { return protocol::encodeKinematics(window, kinematics); }),
+            windowText("kinematics", window), true);
+  ++impl_->nextKinematicsWindow;
+}
+
+void FemParticipant::finalize() { impl_->link.finalizeQuietly(impl_->nextKinematicsWindow); }
+
+void FemParticipant::abort(const std::string& reason) { impl_->link.abortQuietly(impl_->link.self() + ": " + reason); }
+
+const BridgeStatistics& FemParticipant::statistics() const { return impl_->link.statistics(); }
+
+// ---------------------------------------------------------------------------------------------- DEM side
+
+struct DemParticipant::Impl {
+  explicit Impl(ParticipantConfig config) : link(std::move(config), protocol::Role::Dem) {}
+  Link link;
+  std::uint64_t nextForcesWindow = 0;      // window of the next Forces message to send
+  std::uint64_t nextKinematicsWindow = 0;  // window of the next Kinematics message expected
+};
+
+DemParticipant::DemParticipant(ParticipantConfig config) : impl_(std::make_unique<Impl>(std::move(config))) {}
+
+DemParticipant::~DemParticipant() { impl_->link.finalizeQuietly(impl_->nextForcesWindow); }
+
+InterfaceSetup DemParticipant::initialize() {
+  Link& link = impl_->link;
+  if (link.open()) link.fail("initialize() called twice");
+  link.openChannel();
+  // Queued by ZeroMQ until the FEM side binds; the wait below obeys the timeout.
+  link.send(link.encode([&] { return protocol::encodeHello(link.ownHello()); }), "the Hello", false);
+  const std::string waitingFor = "the Hello of the FEM participant";
+  auto [helloFrame, helloHeader] = link.receive(waitingFor, false);
+  if (helloHeader.type != protocol::MessageType::Hello) link.unexpected(helloHeader, "Hello");
+  const protocol::Hello hello =
+      link.decodeBody([&] { return protocol::decodeHello(helloHeader, helloFrame.data()); }, waitingFor);
+  link.checkHello(hello, protocol::Role::Fem, waitingFor);
+  const std::string waitingForMesh = "the interface mesh";
+  auto [meshFrame, meshHeader] = link.receive(waitingForMesh, false);
+  if (meshHeader.type != protocol::MessageType::InterfaceMesh) link.unexpected(meshHeader, "InterfaceMesh");
+  protocol::MeshSetup setup =
+      link.decodeBody([&] { return protocol::decodeMesh(meshHeader, meshFrame.data()); }, waitingForMesh);
+  link.setNodeCount(setup.mesh.nodeCount());
+  link.setHandshakeDone();
+  log(LogLevel::Info, link.self() + ": coupled with FEM participant '" + hello.participantName + "' on " +
+                          link.config().endpoint + " (" + std::to_string(setup.mesh.nodeCount()) +
+                          " interface nodes, window " + std::to_string(setup.femTimeStep) + " s)");
+  InterfaceSetup result;
+  result.peerName = hello.participantName;
+  result.mesh = std::move(setup.mesh);
+  result.femTimeStep = setup.femTimeStep;
+  result.initial = std::move(setup.initial);
+  return result;
+}
+
+void DemParticipant::sendForces(const ForceMessage& message) {
+  Link& link = impl_->link;
+  if (link.peerFinalized()) {
+    // Nothing to deliver to; the following receiveKinematics() reports the early end.
+    ++impl_->nextForcesWindow;
+    return;
+  }
+  link.requireUsable("sendForces()");
+  if (message.window != impl_->nextForcesWindow) {
+    link.fail("sendForces: window " + std::to_string(message.window) + " but window " +
+              std::to_string(impl_->nextForcesWindow) + " is next; windows go 0, 1, 2, ... without gaps");
+  }
+  // Just-in-time sends forces of window i before its kinematics, predictive after them.
+  if (message.window > impl_->nextKinematicsWindow) {
+    link.fail("sendForces: window " + std::to_string(message.window) + " is more than one window ahead of the "
+              "kinematics received so far (" + std::to_string(impl_->nextKinematicsWindow) + " windows)");
+  }
+  if (message.forces.size() != 3 * link.nodeCount()) {
+    link.fail("sendForces(window " + std::to_string(message.window) + "): forces has " +
+              std::to_string(message.forces.size()) + " values, the interface needs 3 per node = " +
+              std::to_string(3 * link.nodeCount()));
+  }
+  if (!std::isfinite(message.time)) link.fail("sendForces: time is not finite");
+  for (std::size_t i = 0; i < message.forces.size(); ++i) {
+    if (!std::isfinite(message.forces[i])) {
+      link.fail("sendForces(window " + std::to_string(message.window) + "): forces[" + std::to_string(i) + "] (node " +
+                std::to_string(i / 3) + ") is not finite; the DEM solution diverged?");
+    }
+  }
+  link.send(link.encode([&] { return protocol::encodeForces(message); }), windowText("forces", message.window), true);
+  ++impl_->nextForcesWindow;
+}
+
+NodalKinematics DemParticipant::receiveKinematics(std::uint64_t window) {
+  Link& link = impl_->link;
+  link.requireUsable("receiveKinematics()");
+  if (window != impl_->nextKinematicsWindow) {
+    link.fail("receiveKinematics: window " + std::to_string(window) + " asked but window " +
+              std::to_string(impl_->nextKinematicsWindow) + " is next");
+  }
+  const std::string waitingFor = windowText("kinematics", window);
+  if (link.peerFinalized()) {
+    throw PeerLostError(link.self() + ": " + link.peerLabel() + " finalized the run while this side was waiting for " +
+                        waitingFor + "; the FEM side ended early (end time reached or stopped) - check its log");
+  }
+  auto [frame, header] = link.receive(waitingFor, true);
+  if (header.type == protocol::MessageType::Finalize) {
+    link.setPeerFinalized();
+    throw PeerLostError(link.self() + ": " + link.peerLabel() + " finalized the run while this side was waiting for " +
+                        waitingFor + "; the FEM side ended early (end time reached or stopped) - check its log");
+  }
+  if (header.type != protocol::MessageType::Kinematics || header.window != window) {
+    link.unexpected(header, "Kinematics for window " + std::to_string(window));
+  }
+  NodalKinematics kinematics = link.decodeBody(
+      [&] { return protocol::decodeKinematics(header, frame.data(), link.nodeCount()); }, waitingFor);
+  ++impl_->nextKinematicsWindow;
+  return kinematics;
+}
+
+void DemParticipant::finalize() { impl_->link.finalizeQuietly(impl_->nextForcesWindow); }
+
+void DemParticipant::abort(const std::string& reason) { impl_->link.abortQuietly(impl_->link.self() + ": " + reason); }
+
+const BridgeStatistics& DemParticipant::statistics() const { return impl_->link.statistics(); }
+
+} // namespace railcosim

@@ -1,0 +1,91 @@
+// The bridge wire format, defined once: header layout, message types, encoders and validating decoders.
+#pragma once
+
+#include "railcosim/InterfaceMesh.hpp"
+#include "railcosim/Participant.hpp"
+
+#include <cstddef>
+#include <cstdint>
+#include <string>
+#include <vector>
+
+namespace railcosim::protocol {
+
+/// Bumped on any change of the byte layout; both participants must speak the same version.
+constexpr std::uint16_t protocolVersion = 1;
+/// Every message starts with these 4 bytes.
+constexpr char magic[4] = {'R', 'C', 'S', 'M'};
+/// Fixed header size in bytes (docs/protocol.md, "Header").
+constexpr std::size_t headerBytes = 56;
+/// Upper bounds that keep a corrupt count from allocating unbounded memory.
+constexpr std::uint64_t maxNodes = 100'000'000;
+constexpr std::uint64_t maxTriangles = 200'000'000;
+constexpr std::size_t maxTextBytes = 65'536;
+
+enum class MessageType : std::uint16_t {
+  Hello = 1,
+  InterfaceMesh = 2,
+  Forces = 3,
+  Kinematics = 4,
+  Finalize = 5,
+  Abort = 6,
+};
+std::string toString(MessageType type);
+
+enum class Role : std::uint8_t { Fem = 1, Dem = 2 };
+std::string toString(Role role);
+
+/// Header flags of Kinematics and InterfaceMesh messages: which optional arrays follow the positions.
+constexpr std::uint32_t flagVelocities = 1u << 0;
+constexpr std::uint32_t flagAccelerations = 1u << 1;
+
+struct Header {
+  std::uint16_t version = protocolVersion;
+  MessageType type = MessageType::Hello;
+  std::uint64_t window = 0;
+  std::uint32_t iteration = 0;   // reserved for implicit coupling; always 0 in version 1
+  std::uint32_t flags = 0;
+  double time = 0.0;
+  std::uint64_t nodeCount = 0;
+  std::uint64_t triangleCount = 0;
+  std::uint64_t payloadBytes = 0;
+};
+
+struct Hello {
+  Role role = Role::Fem;
+  std::string participantName;
+  std::string unitSystem = "SI";
+};
+
+struct MeshSetup {
+  InterfaceMesh mesh;
+  double femTimeStep = 0.0;
+  NodalKinematics initial;
+};
+
+/// Encoders. `version` exists so tests can build a message of another protocol version.
+std::vector<std::uint8_t> encodeHello(const Hello& hello, std::uint16_t version = protocolVersion);
+std::vector<std::uint8_t> encodeMesh(const InterfaceMesh& mesh, double femTimeStep, const NodalKinematics& initial);
+std::vector<std::uint8_t> encodeForces(const ForceMessage& message);
+std::vector<std::uint8_t> encodeKinematics(std::uint64_t window, const NodalKinematics& kinematics);
+std::vector<std::uint8_t> encodeFinalize(std::uint64_t window);
+std::vector<std::uint8_t> encodeAbort(std::uint64_t window, const std::string& reason);
+
+/// Decoders: each throws ProtocolError naming the field that is wrong.
+/// decodeHeader checks magic, version, type, reserved fields and that the payload size matches
+/// what the header announces (truncated or oversized messages).
+Header decodeHeader(const std::uint8_t* data, std::size_t size);
+/// The body decoders take the whole message (header included) and the header decodeHeader returned.
+Hello decodeHello(const Header& header, const std::uint8_t* data);
+MeshSetup decodeMesh(const Header& header, const std::uint8_t* data);
+/// `expectedNodes`: node count of the interface agreed at the handshake.
+ForceMessage decodeForces(const Header& header, const std::uint8_t* data, std::size_t expectedNodes);
+NodalKinematics decodeKinematics(const Header& header, const std::uint8_t* data, std::size_t expectedNodes);
+std::string decodeAbort(const Header& header, const std::uint8_t* data);
+/// Finalize carries no payload, nodes or triangles.
+void decodeFinalize(const Header& header);
+
+/// "Forces for window 3" / "Finalize" / "Hello": used in "expected X, got Y" messages.
+std::string describe(const Header& header);
+
+} // namespace railcosim::protocol

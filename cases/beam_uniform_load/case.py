@@ -1,0 +1,128 @@
+"""Case beam_uniform_load: solver commands, reference runs and post-processing (see README.md)."""
+import json
+import os
+
+import numpy as np
+
+import railcosim_results as results
+
+GRAVITY = 9.81
+
+
+def _root():
+    return os.environ["RAILCOSIM_ROOT"]
+
+
+def _beam_arguments(p):
+    return ["-Lx", str(p["beam_length"]), "-Ly", str(p["beam_width"]), "-Lz", str(p["beam_height"]),
+            "-nx", str(p["elements_x"]), "-ny", str(p["elements_y"]), "-nz", str(p["elements_z"]),
+            "-order", str(p["element_order"]), "-E", str(p["beam_young"]), "-nu", str(p["beam_poisson"]),
+            "-rho", str(p["beam_density"]), "-clamped", "2,4", "-coupled", "6",
+            "-monitor", f"{p['beam_length'] / 2},{p['beam_width'] / 2},{p['beam_height'] / 2}"]
+
+
+def _solver():
+    return os.path.join(_root(), "freefem_scripts", "solvers", "box_elastodynamics.edp")
+
+
+def _average_steps(p):
+    return max(1, int(round(p["average_s"] / p["fem_dt"])))
+
+
+def fem_command(p, endpoint, out):
+    return (["FreeFem++", "-nw", _solver(), "-mode", "coupled", "-endpoint", endpoint, "-scheme", p["scheme"],
+             "-dt", str(p["fem_dt"]), "-rayleighMass", str(p["rayleigh_mass"]),
+             "-averageSteps", str(_average_steps(p)), "-progressEvery", "100", "-out", os.path.join(out, "fem")]
+            + _beam_arguments(p))
+
+
+def dem_command(p, endpoint, out):
+    return [os.path.join(_root(), "railcosim"), "yade", os.path.join(p["case_dir"], "dem.py"),
+            os.path.join(out, "parameters.json"), endpoint, out]
+
+
+def _top_pressure(p):
+    return p["particle_mass_kg"] * GRAVITY / (p["beam_length"] * p["beam_width"])
+
+
+def reference_runs(p, out):
+    """The same FreeFEM beam under the equivalent uniform pressure, lumped to the same surface nodes."""
+    return [("direct_fem", ["FreeFem++", "-nw", _solver(), "-mode", "static", "-pressure", str(_top_pressure(p)),
+                            "-load", "lumped", "-out", os.path.join(out, "direct_fem")] + _beam_arguments(p))]
+
+
+def closed_form_deflection(p):
+    """Clamped-clamped beam under a uniform line load: bending (wL^4/384EI) plus shear (wL^2/8kGA).
+
+    Shear coefficient of a rectangle k = 10(1+nu)/(12+11nu) (Cowper 1966).
+    """
+    w = p["particle_mass_kg"] * GRAVITY / p["beam_length"]
+    b, h, length = p["beam_width"], p["beam_height"], p["beam_length"]
+    young, nu = p["beam_young"], p["beam_poisson"]
+    inertia = b * h ** 3 / 12.0
+    shear_modulus = young / (2.0 * (1.0 + nu))
+    kappa = 10.0 * (1.0 + nu) / (12.0 + 11.0 * nu)
+    return w * length ** 4 / (384.0 * young * inertia) + w * length ** 2 / (8.0 * kappa * shear_modulus * b * h)
+
+
+def postprocess(p, out):
+    fem = results.read_json(os.path.join(out, "fem", "fem_summary.json"))
+    direct = results.read_json(os.path.join(out, "direct_fem", "fem_summary.json"))
+    dem = results.read_json(os.path.join(out, "dem_info.json"))
+    monitor = results.read_csv_columns(os.path.join(out, "fem", "fem_monitor.csv"))
+    series = dict(np.load(os.path.join(out, "dem_timeseries.npz")))
+
+    coupled = -fem["monitor_average"][2]       # downward deflection, positive
+    direct_deflection = -direct["monitor_final"][2]
+    closed = closed_form_deflection(p)
+    weight = dem["total_particle_mass_kg"] * GRAVITY
+    window = series["time"] >= series["time"][-1] - p["average_s"]
+    interface_force = -float(np.mean(series["interface_force"][window, 2]))
+
+    results.write_timeseries(os.path.join(out, "timeseries.h5"), {
+        "dem": {k: v for k, v in series.items() if k != "triangles"},
+        "fem": monitor,
+        "interface": {"triangles": series["triangles"]},
+    })
+    results.plot_history(
+        os.path.join(out, "deflection.png"),
+        title=f"Clamped beam under {dem['total_particle_mass_kg']:.1f} kg of spheres",
+        panels=[
+            {"x": monitor["time"], "y": [-u * 1e6 for u in monitor["uz"]], "label": "coupled FEM (beam axis, mid-span)",
+             "ylabel": "deflection [µm]",
+             "lines": [(direct_deflection * 1e6, "direct FEM, same load"), (closed * 1e6, "closed form (Timoshenko)")]},
+            {"x": series["time"], "y": -series["interface_force"][:, 2], "label": "interface force from DEM",
+             "ylabel": "force on beam [N]", "lines": [(weight, "particle weight")]},
+        ])
+
+    error_direct = abs(coupled - direct_deflection) / direct_deflection
+    error_closed = abs(direct_deflection - closed) / closed
+    force_error = abs(interface_force - weight) / weight
+    checks = [
+        # The seed reached 0.38 % (51 kg) and 0.85 % (72 kg); the issue asks for 1 %.
+        {"name": "coupled vs direct FEM deflection", "value": error_direct, "limit": 0.01},
+        # P2 20x2x2 is 3 % below the closed form (mesh study in freefem_scripts/README.md); 5 % is the target.
+        {"name": "direct FEM vs closed form", "value": error_closed, "limit": 0.05},
+        # At rest the beam carries the whole weight (frictionless walls); 1 % leaves room for residual motion.
+        {"name": "interface force vs particle weight", "value": force_error, "limit": 0.01},
+    ]
+    for c in checks:
+        c["passed"] = bool(c["value"] <= c["limit"])
+    return {
+        "dem": {"steps": dem["steps"], "dt": dem["dt"], "particles": dem["particles"]},
+        "fem": {"steps": fem.get("steps"), "dt": fem.get("dt"), "nodes": fem.get("nodes")},
+        "coupling": {"scheme": dem["scheme"], "exchanges": dem["exchanges"], "subcycles": dem["subcycles"],
+                     "bridge_time_s": dem["bridge_time_s"] + fem.get("bridge_seconds", 0.0),
+                     "bridge_time_per_exchange_s": (dem["bridge_time_s"] + fem.get("bridge_seconds", 0.0))
+                     / max(1, dem["exchanges"])},
+        "metrics": {"midspan_deflection_m": coupled, "direct_fem_deflection_m": direct_deflection,
+                    "closed_form_deflection_m": closed, "total_particle_mass_kg": dem["total_particle_mass_kg"],
+                    "interface_force_n": interface_force, "particle_weight_n": weight,
+                    "final_kinetic_energy_j": dem["final_kinetic_energy_j"]},
+        "reference": {"direct_fem_deflection_m": direct_deflection, "closed_form_deflection_m": closed,
+                      "seed002_table4_2": {"51kg": {"pure_fem_m": 7.06e-7, "coupled_m": 7.04e-7},
+                                           "72kg": {"pure_fem_m": 9.97e-7, "coupled_m": 9.89e-7}}},
+        "relative_error": {"coupled_vs_direct_fem": error_direct, "direct_fem_vs_closed_form": error_closed,
+                           "interface_force_vs_weight": force_error},
+        "checks": checks,
+    }

@@ -1,0 +1,112 @@
+# DEM participant of the beam case: spheres settle on the coupled top face of the FEM beam.
+# Run by `railcosim run` as: railcosim yade dem.py PARAMETERS.json ENDPOINT OUTDIR
+import json
+import math
+import os
+import random
+import sys
+import time
+
+import numpy as np
+
+params_path, endpoint, out = sys.argv[1], sys.argv[2], sys.argv[3]
+with open(params_path) as f:
+    p = json.load(f)
+
+L, W, H = p["beam_length"], p["beam_width"], p["beam_height"]
+R = p["sphere_radius"]
+
+# 1. Materials: the walls are frictionless so that all the weight of the bed rests on the beam.
+particle_mat = O.materials.append(FrictMat(young=p["particle_young"], poisson=0.3, density=p["particle_density"],
+                                           frictionAngle=math.atan(p["friction"]), label="particles"))
+wall_mat = O.materials.append(FrictMat(young=p["particle_young"], poisson=0.3, density=p["particle_density"],
+                                       frictionAngle=0.0, label="walls"))
+beam_mat = O.materials.append(FrictMat(young=p["particle_young"], poisson=0.3, density=p["beam_density"],
+                                       frictionAngle=math.atan(p["friction"]), label="beam"))
+
+# 2. Side walls around the top face (they do not touch the beam, which lies below z = H).
+for axis, position, sense in ((0, 0.0, 1), (0, L, -1), (1, 0.0, 1), (1, W, -1)):
+    O.bodies.append(utils.wall(position=position, axis=axis, sense=sense, material=wall_mat))
+
+# 3. A loose lattice of spheres above the beam, jittered; density fitted so the total mass is exact.
+rng = random.Random(p["seed"])
+sphere_volume = 4.0 / 3.0 * math.pi * R ** 3
+count = max(1, round(p["particle_mass_kg"] / (p["particle_density"] * sphere_volume)))
+spacing = 2.0 * R * 1.08
+along, across = max(1, int((L - 2 * R) / spacing) + 1), max(1, int((W - 2 * R) / spacing) + 1)
+dx = (L - 2 * R) / max(1, along - 1) if along > 1 else 0.0
+dy = (W - 2 * R) / max(1, across - 1) if across > 1 else 0.0
+jitter = 0.03 * R
+centres = []
+layer = 0
+while len(centres) < count:
+    z = H + R * 1.05 + layer * spacing
+    for i in range(along):
+        for j in range(across):
+            if len(centres) == count:
+                break
+            x = R + i * dx + rng.uniform(-jitter, jitter) * (0 < i < along - 1)
+            y = R + j * dy + rng.uniform(-jitter, jitter) * (0 < j < across - 1)
+            centres.append((x, y, z + rng.uniform(0, jitter)))
+    layer += 1
+density = p["particle_mass_kg"] / (count * sphere_volume)
+O.materials[particle_mat].density = density
+sphere_ids = [O.bodies.append(utils.sphere(c, R, material=particle_mat)) for c in centres]
+total_mass = sum(O.bodies[i].state.mass for i in sphere_ids)
+
+# 4. Engines: the coupling engine sits after the contact loop and before the integrator.
+coupling = FemCouplingEngine(endpoint=endpoint, material=O.materials[beam_mat], scheme=p["scheme"],
+                             averageForces=p["average_forces"], timeout=60.0, label="coupling")
+O.engines = [
+    ForceResetter(),
+    InsertionSortCollider([Bo1_Sphere_Aabb(), Bo1_Facet_Aabb(), Bo1_Wall_Aabb()]),
+    InteractionLoop([Ig2_Sphere_Sphere_ScGeom(), Ig2_Facet_Sphere_ScGeom(), Ig2_Wall_Sphere_ScGeom()],
+                    [Ip2_FrictMat_FrictMat_FrictPhys()],
+                    [Law2_ScGeom_FrictPhys_CundallStrack()]),
+    coupling,
+    NewtonIntegrator(damping=p["local_damping"], gravity=(0, 0, -9.81)),
+]
+O.dt = p["dem_dt_safety"] * PWaveTimeStep()
+coupling.connect()  # receives the beam's top surface, inserts its facets, sets O.dt = fem_dt / subcycles
+n = coupling.subcycles
+windows = int(round(p["duration_s"] / coupling.femDt))
+print(f"{count} spheres, {total_mass:.3f} kg, radius {R} m; {len(coupling.facetIds)} facets; "
+      f"O.dt={O.dt:.3e} s, {n} DEM steps per FEM step, {windows} windows", flush=True)
+
+# 5. One record per window: interface force, kinetic energy, nodal forces and kinematics.
+series = {"time": [], "interface_force": [], "kinetic_energy": [], "nodal_forces": [], "node_positions": [],
+          "node_velocities": []}
+wall_start = time.monotonic()
+
+
+def record():
+    series["time"].append(O.time)
+    series["interface_force"].append(tuple(coupling.totalForce))
+    series["kinetic_energy"].append(utils.kineticEnergy())
+    series["nodal_forces"].append([tuple(f) for f in coupling.nodalForces])
+    series["node_positions"].append([tuple(x) for x in coupling.nodePositions])
+    series["node_velocities"].append([tuple(v) for v in coupling.nodeVelocities])
+    k = len(series["time"])
+    if k % max(1, windows // 10) == 0:
+        print(f"t={O.time:.4f} s  window {coupling.window}/{windows}  interface Fz={coupling.totalForce[2]:.2f} N "
+              f"(weight {total_mass * 9.81:.2f} N)  kinetic energy {series['kinetic_energy'][-1]:.3e} J  "
+              f"{time.monotonic() - wall_start:.1f} s", flush=True)
+
+
+O.engines = O.engines + [PyRunner(command="record()", iterPeriod=n, initRun=False)]
+# One extra DEM step so that the last window's forces are exchanged at its end.
+O.run(windows * n + 1, True)
+coupling.finalize()
+wall = time.monotonic() - wall_start
+
+np.savez_compressed(os.path.join(out, "dem_timeseries.npz"),
+                    **{k: np.asarray(v, dtype=float) for k, v in series.items()},
+                    triangles=np.asarray([tuple(t) for t in coupling.triangles], dtype=int))
+info = {"steps": O.iter, "dt": O.dt, "particles": count, "total_particle_mass_kg": total_mass,
+        "subcycles": n, "exchanges": coupling.exchanges, "bridge_time_s": coupling.bridgeTime,
+        "wait_time_s": coupling.waitTime, "wall_time_s": wall, "scheme": coupling.scheme,
+        "final_kinetic_energy_j": utils.kineticEnergy()}
+with open(os.path.join(out, "dem_info.json"), "w") as f:
+    json.dump(info, f, indent=2)
+print(f"done: {O.iter} steps in {wall:.1f} s; bridge {coupling.bridgeTime:.3f} s over {coupling.exchanges} exchanges",
+      flush=True)

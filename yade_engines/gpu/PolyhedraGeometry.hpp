@@ -1,0 +1,561 @@
+// Geometry of dilated convex polyhedra for host and device: quaternions, GJK core distance, contact patch.
+#pragma once
+
+#include <cmath>
+
+#include "kernels/HostDevice.hpp"
+#include "kernels/Vector3.hpp"
+
+namespace railcosim::polyhedra {
+
+using kernels::Vec3;
+
+// ---------------------------------------------------------------------------------------------------
+// Unit quaternions, convention of Irazábal 2017 §5.3 (seed000 eqs. 5.29–5.39): v_world = q v_body q*.
+// ---------------------------------------------------------------------------------------------------
+struct Quat {
+    double w;
+    double x;
+    double y;
+    double z;
+};
+
+RAILCOSIM_HOST_DEVICE inline Quat multiply(const Quat& p, const Quat& q) {  // eq. 5.34
+    return Quat{p.w * q.w - p.x * q.x - p.y * q.y - p.z * q.z, p.w * q.x + q.w * p.x + p.y * q.z - p.z * q.y,
+                p.w * q.y + q.w * p.y + p.z * q.x - p.x * q.z, p.w * q.z + q.w * p.z + p.x * q.y - p.y * q.x};
+}
+
+RAILCOSIM_HOST_DEVICE inline Quat normalized(const Quat& q) {
+    const double s = 1.0 / std::sqrt(q.w * q.w + q.x * q.x + q.y * q.y + q.z * q.z);
+    return Quat{q.w * s, q.x * s, q.y * s, q.z * s};
+}
+
+// Body -> world, eqs. 5.35–5.36: t = 2 (q × v); v' = v + q0 t + q × t.
+RAILCOSIM_HOST_DEVICE inline Vec3 rotate(const Quat& q, const Vec3& v) {
+    const Vec3 axis{q.x, q.y, q.z};
+    const Vec3 t = 2.0 * kernels::cross(axis, v);
+    return v + q.w * t + kernels::cross(axis, t);
+}
+
+// World -> body (rotation by q*).
+RAILCOSIM_HOST_DEVICE inline Vec3 rotateInverse(const Quat& q, const Vec3& v) { return rotate(Quat{q.w, -q.x, -q.y, -q.z}, v); }
+
+// Incremental rotation for a constant world angular velocity ω over Δt, eq. 5.39.
+RAILCOSIM_HOST_DEVICE inline Quat rotationIncrement(const Vec3& omega, double timeStep) {
+    const double rate = kernels::norm(omega);
+    const double halfAngle = 0.5 * rate * timeStep;
+    if (rate * timeStep < 1e-300) return Quat{1.0, 0.0, 0.0, 0.0};
+    const double s = std::sin(halfAngle) / rate;
+    return Quat{std::cos(halfAngle), omega.x * s, omega.y * s, omega.z * s};
+}
+
+// Row-major rotation matrix of q (body -> world); built once per body per contact evaluation.
+struct Rotation {
+    double m[9];
+};
+
+RAILCOSIM_HOST_DEVICE inline Rotation rotationMatrix(const Quat& q) {
+    const double xx = q.x * q.x, yy = q.y * q.y, zz = q.z * q.z;
+    const double xy = q.x * q.y, xz = q.x * q.z, yz = q.y * q.z;
+    const double wx = q.w * q.x, wy = q.w * q.y, wz = q.w * q.z;
+    return Rotation{{1.0 - 2.0 * (yy + zz), 2.0 * (xy - wz), 2.0 * (xz + wy), 2.0 * (xy + wz), 1.0 - 2.0 * (xx + zz),
+                     2.0 * (yz - wx), 2.0 * (xz - wy), 2.0 * (yz + wx), 1.0 - 2.0 * (xx + yy)}};
+}
+
+RAILCOSIM_HOST_DEVICE inline Vec3 apply(const Rotation& r, const Vec3& v) {
+    return Vec3{r.m[0] * v.x + r.m[1] * v.y + r.m[2] * v.z, r.m[3] * v.x + r.m[4] * v.y + r.m[5] * v.z,
+                r.m[6] * v.x + r.m[7] * v.y + r.m[8] * v.z};
+}
+
+RAILCOSIM_HOST_DEVICE inline Vec3 applyTransposed(const Rotation& r, const Vec3& v) {
+    return Vec3{r.m[0] * v.x + r.m[3] * v.y + r.m[6] * v.z, r.m[1] * v.x + r.m[4] * v.y + r.m[7] * v.z,
+                r.m[2] * v.x + r.m[5] * v.y + r.m[8] * v.z};
+}
+
+// ---------------------------------------------------------------------------------------------------
+// A convex core seen by GJK: vertices in a local frame, placed by a rotation and a translation.
+// A stone uses its template's vertices; a wall triangle passes its 3 world vertices with identity.
+// ---------------------------------------------------------------------------------------------------
+struct ConvexCore {
+    const double* vertices;  // 3 per vertex, local frame [m]
+    int vertexCount;
+    Rotation rotation;       // local -> world
+    Vec3 position;           // world position of the local origin [m]
+};
+
+RAILCOSIM_HOST_DEVICE inline Vec3 vertexWorld(const ConvexCore& core, int index) {
+    const double* v = core.vertices + 3 * index;
+    return core.position + apply(core.rotation, Vec3{v[0], v[1], v[2]});
+}
+
+// Support point: the vertex farthest along the world direction d (O(V), the only per-vertex work of GJK).
+RAILCOSIM_HOST_DEVICE inline Vec3 support(const ConvexCore& core, const Vec3& direction) {
+    const Vec3 local = applyTransposed(core.rotation, direction);
+    int best = 0;
+    double bestValue = -1e300;
+    for (int k = 0; k < core.vertexCount; ++k) {
+        const double* v = core.vertices + 3 * k;
+        const double value = v[0] * local.x + v[1] * local.y + v[2] * local.z;
+        if (value > bestValue) {
+            bestValue = value;
+            best = k;
+        }
+    }
+    return vertexWorld(core, best);
+}
+
+// ---------------------------------------------------------------------------------------------------
+// GJK distance between two convex cores (Gilbert, Johnson & Keerthi 1988) on the Minkowski difference
+// A − B, with the closest point of each sub-simplex found through its Voronoi regions (Ericson 2005,
+// Real-Time Collision Detection §5.1). Cost O(V) per iteration instead of O(V·F) for vertex–face pairs.
+// ---------------------------------------------------------------------------------------------------
+struct CoreDistance {
+    bool intersecting;  // cores overlap (distance 0): only possible when the dilated overlap exceeds r_A + r_B
+    double distance;    // Δ between the cores [m]
+    Vec3 pointA;        // closest point on core A [m]
+    Vec3 pointB;        // closest point on core B [m]
+    int iterations;
+};
+
+namespace detail {
+
+struct SimplexVertex {
+    Vec3 w;  // a − b
+    Vec3 a;
+    Vec3 b;
+};
+
+struct Simplex {
+    SimplexVertex v[4];
+    int count;
+};
+
+// Reduces the simplex to the sub-simplex whose affine hull holds the point closest to the origin and
+// returns that point with barycentric weights in `weights`. Returns false when the origin lies inside a
+// tetrahedron (the cores intersect).
+RAILCOSIM_HOST_DEVICE inline bool closestOnSimplex(Simplex& s, double weights[4], Vec3& closest);
+
+RAILCOSIM_HOST_DEVICE inline void closestOnSegment(Simplex& s, double weights[4], Vec3& closest) {
+    const Vec3 a = s.v[0].w, b = s.v[1].w;
+    const Vec3 ab = b - a;
+    const double denominator = kernels::dot(ab, ab);
+    double t = denominator > 0.0 ? -kernels::dot(a, ab) / denominator : 0.0;
+    if (t <= 0.0) {
+        s.count = 1;
+        weights[0] = 1.0;
+        closest = a;
+    } else if (t >= 1.0) {
+        s.v[0] = s.v[1];
+        s.count = 1;
+        weights[0] = 1.0;
+        closest = b;
+    } else {
+        weights[0] = 1.0 - t;
+        weights[1] = t;
+        closest = a + t * ab;
+    }
+}
+
+// Closest point of triangle (v0,v1,v2) of the simplex to the origin; Ericson §5.1.5 with p = 0.
+RAILCOSIM_HOST_DEVICE inline void closestOnTriangle(Simplex& s, double weights[4], Vec3& closest) {
+    const SimplexVertex A = s.v[0], B = s.v[1], C = s.v[2];
+    const Vec3 a = A.w, b = B.w, c = C.w;
+    const Vec3 ab = b - a, ac = c - a, ap = -a;
+    const double d1 = kernels::dot(ab, ap), d2 = kernels::dot(ac, ap);
+    if (d1 <= 0.0 && d2 <= 0.0) {
+        s.v[0] = A;
+        s.count = 1;
+        weights[0] = 1.0;
+        closest = a;
+        return;
+    }
+    const Vec3 bp = -b;
+    const double d3 = kernels::dot(ab, bp), d4 = kernels::dot(ac, bp);
+    if (d3 >= 0.0 && d4 <= d3) {
+        s.v[0] = B;
+        s.count = 1;
+        weights[0] = 1.0;
+        closest = b;
+        return;
+    }
+    const double vc = d1 * d4 - d3 * d2;
+    if (vc <= 0.0 && d1 >= 0.0 && d3 <= 0.0) {
+        const double t = d1 / (d1 - d3);
+        s.v[0] = A;
+        s.v[1] = B;
+        s.count = 2;
+        weights[0] = 1.0 - t;
+        weights[1] = t;
+        closest = a + t * ab;
+        return;
+    }
+    const Vec3 cp = -c;
+    const double d5 = kernels::dot(ab, cp), d6 = kernels::dot(ac, cp);
+    if (d6 >= 0.0 && d5 <= d6) {
+        s.v[0] = C;
+        s.count = 1;
+        weights[0] = 1.0;
+        closest = c;
+        return;
+    }
+    const double vb = d5 * d2 - d1 * d6;
+    if (vb <= 0.0 && d2 >= 0.0 && d6 <= 0.0) {
+        const double t = d2 / (d2 - d6);
+        s.v[0] = A;
+        s.v[1] = C;
+        s.count = 2;
+        weights[0] = 1.0 - t;
+        weights[1] = t;
+        closest = a + t * ac;
+        return;
+    }
+    const double va = d3 * d6 - d5 * d4;
+    if (va <= 0.0 && (d4 - d3) >= 0.0 && (d5 - d6) >= 0.0) {
+        const double t = (d4 - d3) / ((d4 - d3) + (d5 - d6));
+        s.v[0] = B;
+        s.v[1] = C;
+        s.count = 2;
+        weights[0] = 1.0 - t;
+        weights[1] = t;
+        closest = b + t * (c - b);
+        return;
+    }
+    const double denominator = 1.0 / (va + vb + vc);
+    const double v = vb * denominator, w = vc * denominator;
+    weights[0] = 1.0 - v - w;
+    weights[1] = v;
+    weights[2] = w;
+    closest = a + v * ab + w * ac;
+}
+
+// True when the origin and vertex d lie on opposite sides of the plane (a,b,c) (or the origin on it).
+RAILCOSIM_HOST_DEVICE inline bool originOutsideFace(const Vec3& a, const Vec3& b, const Vec3& c, const Vec3& d) {
+    const Vec3 normal = kernels::cross(b - a, c - a);
+    const double signOrigin = kernels::dot(-a, normal);
+    const double signOpposite = kernels::dot(d - a, normal);
+    return signOrigin * signOpposite < 0.0;
+}
+
+RAILCOSIM_HOST_DEVICE inline bool closestOnTetrahedron(Simplex& s, double weights[4], Vec3& closest) {
+    const SimplexVertex P[4] = {s.v[0], s.v[1], s.v[2], s.v[3]};
+    // Faces as (i, j, k, opposite).
+    const int faces[4][4] = {{0, 1, 2, 3}, {0, 2, 3, 1}, {0, 3, 1, 2}, {1, 3, 2, 0}};
+    double bestDistance = 1e300;
+    bool anyOutside = false;
+    Simplex best = s;
+    double bestWeights[4] = {1.0, 0.0, 0.0, 0.0};
+    Vec3 bestPoint = P[0].w;
+    for (int f = 0; f < 4; ++f) {
+        const SimplexVertex A = P[faces[f][0]], B = P[faces[f][1]], C = P[faces[f][2]], D = P[faces[f][3]];
+        if (!originOutsideFace(A.w, B.w, C.w, D.w)) continue;
+        anyOutside = true;
+        Simplex face;
+        face.v[0] = A;
+        face.v[1] = B;
+        face.v[2] = C;
+        face.count = 3;
+        double faceWeights[4];
+        Vec3 point;
+        closestOnTriangle(face, faceWeights, point);
+        const double distance = kernels::dot(point, point);
+        if (distance < bestDistance) {
+            bestDistance = distance;
+            best = face;
+            for (int k = 0; k < 4; ++k) bestWeights[k] = faceWeights[k];
+            bestPoint = point;
+        }
+    }
+    if (!anyOutside) return false;
+    s = best;
+    for (int k = 0; k < 4; ++k) weights[k] = bestWeights[k];
+    closest = bestPoint;
+    return true;
+}
+
+RAILCOSIM_HOST_DEVICE inline bool closestOnSimplex(Simplex& s, double weights[4], Vec3& closest) {
+    switch (s.count) {
+    case 1:
+        weights[0] = 1.0;
+        closest = s.v[0].w;
+        return true;
+    case 2:
+        closestOnSegment(s, weights, closest);
+        return true;
+    case 3:
+        closestOnTriangle(s, weights, closest);
+        return true;
+    default:
+        return closestOnTetrahedron(s, weights, closest);
+    }
+}
+
+}  // namespace detail
+
+// initialDirection: any guess of the direction from A to B (a cached contact normal makes GJK converge
+// in one or two iterations for persistent contacts, the "warm start").
+RAILCOSIM_HOST_DEVICE inline CoreDistance coreDistance(const ConvexCore& A, const ConvexCore& B, const Vec3& initialDirection) {
+    // Relative tolerance on the squared distance (double precision: ~1e-12 of the distance itself is
+    // far below any overlap that matters, 1e-3 r_d in the tests).
+    constexpr double relativeTolerance = 1e-12;
+    constexpr int maxIterations = 64;
+    detail::Simplex s;
+    Vec3 direction = initialDirection;
+    if (kernels::squaredNorm(direction) < 1e-300) direction = Vec3{1.0, 0.0, 0.0};
+    // First vertex of A − B: support of A along −(B−A) and of B along +(B−A), i.e. the facing features.
+    {
+        const Vec3 a = support(A, direction);
+        const Vec3 b = support(B, -direction);
+        s.v[0] = detail::SimplexVertex{a - b, a, b};
+        s.count = 1;
+    }
+    double weights[4] = {1.0, 0.0, 0.0, 0.0};
+    Vec3 v = s.v[0].w;
+    CoreDistance result{false, 0.0, s.v[0].a, s.v[0].b, 0};
+    int iteration = 0;
+    for (; iteration < maxIterations; ++iteration) {
+        const double vv = kernels::dot(v, v);
+        if (vv < 1e-30) {  // the origin is (numerically) in A − B
+            result.intersecting = true;
+            break;
+        }
+        const Vec3 a = support(A, -v);
+        const Vec3 b = support(B, v);
+        const Vec3 w = a - b;
+        // Convergence: no support point gets closer than v by more than the tolerance (GJK's lower bound).
+        if (vv - kernels::dot(v, w) <= relativeTolerance * vv) break;
+        bool duplicate = false;
+        for (int k = 0; k < s.count; ++k) {
+            if (kernels::squaredNorm(s.v[k].w - w) < 1e-30) duplicate = true;
+        }
+        if (duplicate) break;
+        s.v[s.count] = detail::SimplexVertex{w, a, b};
+        ++s.count;
+        if (!detail::closestOnSimplex(s, weights, v)) {
+            result.intersecting = true;
+            break;
+        }
+    }
+    result.iterations = iteration;
+    Vec3 pa{0.0, 0.0, 0.0}, pb{0.0, 0.0, 0.0};
+    for (int k = 0; k < s.count; ++k) {
+        pa += weights[k] * s.v[k].a;
+        pb += weights[k] * s.v[k].b;
+    }
+    result.pointA = pa;
+    result.pointB = pb;
+    result.distance = result.intersecting ? 0.0 : kernels::norm(v);
+    return result;
+}
+
+// Separating-axis depth of overlapping cores along the unit normal n (A -> B): how far A's support along n
+// reaches past B's support along −n. Used only in the fallback when the cores themselves intersect.
+RAILCOSIM_HOST_DEVICE inline double coreOverlapAlong(const ConvexCore& A, const ConvexCore& B, const Vec3& unitNormal) {
+    const Vec3 a = support(A, unitNormal);
+    const Vec3 b = support(B, -unitNormal);
+    return kernels::dot(a - b, unitNormal);
+}
+
+// ---------------------------------------------------------------------------------------------------
+// Contact patch of nearly parallel features. GJK returns one closest pair, which is arbitrary inside a
+// face–face or parallel edge–face contact; the force must act at the centre of the touching region,
+// otherwise a stone resting on a face feels a spurious torque. The features of A facing n and of B facing
+// −n (vertices within `tolerance` of the support height) are projected onto the contact plane and
+// intersected; the centroid of the intersection is the contact point. Vertex–face and crossed-edge
+// contacts keep the GJK point.
+// ---------------------------------------------------------------------------------------------------
+namespace detail {
+
+constexpr int maxFeatureVertices = 8;
+
+struct Point2 {
+    double u;
+    double v;
+};
+
+RAILCOSIM_HOST_DEVICE inline double cross2(const Point2& o, const Point2& a, const Point2& b) {
+    return (a.u - o.u) * (b.v - o.v) - (a.v - o.v) * (b.u - o.u);
+}
+
+// Convex hull (Andrew's monotone chain) of at most maxFeatureVertices points, counter-clockwise,
+// collinear points dropped. Returns the hull size (1, 2 or more). Sorting by insertion: n ≤ 8.
+RAILCOSIM_HOST_DEVICE inline int convexHull(Point2* p, int n, Point2* hull, double areaTolerance) {
+    for (int i = 1; i < n; ++i) {
+        const Point2 key = p[i];
+        int j = i - 1;
+        while (j >= 0 && (p[j].u > key.u || (p[j].u == key.u && p[j].v > key.v))) {
+            p[j + 1] = p[j];
+            --j;
+        }
+        p[j + 1] = key;
+    }
+    if (n == 1) {
+        hull[0] = p[0];
+        return 1;
+    }
+    int k = 0;
+    for (int i = 0; i < n; ++i) {
+        while (k >= 2 && cross2(hull[k - 2], hull[k - 1], p[i]) <= areaTolerance) --k;
+        hull[k++] = p[i];
+    }
+    for (int i = n - 2, lower = k + 1; i >= 0; --i) {
+        while (k >= lower && cross2(hull[k - 2], hull[k - 1], p[i]) <= areaTolerance) --k;
+        hull[k++] = p[i];
+    }
+    return k - 1 > 0 ? k - 1 : 1;
+}
+
+// Clips the convex polygon `subject` (n points) by the convex counter-clockwise polygon `clip` (m ≥ 3)
+// (Sutherland–Hodgman). Output holds at most n + m points; returns its size.
+RAILCOSIM_HOST_DEVICE inline int clipPolygon(const Point2* subject, int n, const Point2* clip, int m, Point2* out) {
+    Point2 buffer[2][2 * maxFeatureVertices + 2];
+    int count = n;
+    for (int i = 0; i < n; ++i) buffer[0][i] = subject[i];
+    int current = 0;
+    for (int e = 0; e < m && count > 0; ++e) {
+        const Point2 c0 = clip[e], c1 = clip[(e + 1) % m];
+        const Point2* input = buffer[current];
+        Point2* output = buffer[1 - current];
+        int outCount = 0;
+        for (int i = 0; i < count; ++i) {
+            const Point2 p = input[i], q = input[(i + 1) % count];
+            const double sp = cross2(c0, c1, p), sq = cross2(c0, c1, q);
+            if (sp >= 0.0 && outCount < 2 * maxFeatureVertices + 2) output[outCount++] = p;
+            if ((sp >= 0.0) != (sq >= 0.0) && outCount < 2 * maxFeatureVertices + 2) {
+                const double t = sp / (sp - sq);
+                output[outCount++] = Point2{p.u + t * (q.u - p.u), p.v + t * (q.v - p.v)};
+            }
+        }
+        count = outCount;
+        current = 1 - current;
+    }
+    for (int i = 0; i < count; ++i) out[i] = buffer[current][i];
+    return count;
+}
+
+// Centroid of a polygon (area-weighted); falls back to the vertex mean when the area vanishes.
+RAILCOSIM_HOST_DEVICE inline Point2 polygonCentroid(const Point2* p, int n) {
+    double area = 0.0, cu = 0.0, cv = 0.0;
+    for (int i = 0; i < n; ++i) {
+        const Point2 a = p[i], b = p[(i + 1) % n];
+        const double c = a.u * b.v - b.u * a.v;
+        area += c;
+        cu += (a.u + b.u) * c;
+        cv += (a.v + b.v) * c;
+    }
+    if (std::fabs(area) > 1e-300) return Point2{cu / (3.0 * area), cv / (3.0 * area)};
+    double su = 0.0, sv = 0.0;
+    for (int i = 0; i < n; ++i) {
+        su += p[i].u;
+        sv += p[i].v;
+    }
+    return Point2{su / n, sv / n};
+}
+
+// Part of segment (p0,p1) inside the convex counter-clockwise polygon (Cyrus–Beck); false if none.
+RAILCOSIM_HOST_DEVICE inline bool clipSegment(Point2& p0, Point2& p1, const Point2* polygon, int m) {
+    double tEnter = 0.0, tExit = 1.0;
+    for (int e = 0; e < m; ++e) {
+        const Point2 c0 = polygon[e], c1 = polygon[(e + 1) % m];
+        const double s0 = cross2(c0, c1, p0), s1 = cross2(c0, c1, p1);
+        if (s0 < 0.0 && s1 < 0.0) return false;
+        if (s0 < 0.0 || s1 < 0.0) {
+            const double t = s0 / (s0 - s1);
+            if (s0 < 0.0) {
+                if (t > tEnter) tEnter = t;
+            } else if (t < tExit) {
+                tExit = t;
+            }
+        }
+    }
+    if (tEnter > tExit) return false;
+    const Point2 a = p0;
+    p0 = Point2{a.u + tEnter * (p1.u - a.u), a.v + tEnter * (p1.v - a.v)};
+    p1 = Point2{a.u + tExit * (p1.u - a.u), a.v + tExit * (p1.v - a.v)};
+    return true;
+}
+
+// Vertices of `core` whose height along `direction` is within `tolerance` of the maximum, projected.
+RAILCOSIM_HOST_DEVICE inline int supportFeature(const ConvexCore& core, const Vec3& direction, double tolerance, const Vec3& t1,
+                                                const Vec3& t2, Point2* out) {
+    const Vec3 local = applyTransposed(core.rotation, direction);
+    double best = -1e300;
+    for (int k = 0; k < core.vertexCount; ++k) {
+        const double* v = core.vertices + 3 * k;
+        const double h = v[0] * local.x + v[1] * local.y + v[2] * local.z;
+        if (h > best) best = h;
+    }
+    int count = 0;
+    for (int k = 0; k < core.vertexCount && count < maxFeatureVertices; ++k) {
+        const double* v = core.vertices + 3 * k;
+        const double h = v[0] * local.x + v[1] * local.y + v[2] * local.z;
+        if (h >= best - tolerance) {
+            const Vec3 world = vertexWorld(core, k);
+            out[count++] = Point2{kernels::dot(world, t1), kernels::dot(world, t2)};
+        }
+    }
+    return count;
+}
+
+}  // namespace detail
+
+// Orthonormal tangent basis (t1, t2) of the plane normal to the unit vector n.
+RAILCOSIM_HOST_DEVICE inline void tangentBasis(const Vec3& n, Vec3& t1, Vec3& t2) {
+    const Vec3 helper = std::fabs(n.x) < 0.6 ? Vec3{1.0, 0.0, 0.0} : Vec3{0.0, 1.0, 0.0};
+    t1 = kernels::tangentialPart(helper, n);
+    t1 = t1 / kernels::norm(t1);
+    t2 = kernels::cross(n, t1);
+}
+
+// Contact point in the mid-plane of the dilated overlap. `planeHeight` is that plane's position along n,
+// `fallback` the GJK mid-point; `tolerance` the support-height band that counts as one feature [m].
+RAILCOSIM_HOST_DEVICE inline Vec3 contactPatchCentre(const ConvexCore& A, const ConvexCore& B, const Vec3& n, double planeHeight,
+                                                     const Vec3& fallback, double tolerance) {
+    using namespace detail;
+    Vec3 t1, t2;
+    tangentBasis(n, t1, t2);
+    Point2 rawA[maxFeatureVertices], rawB[maxFeatureVertices];
+    const int countA = supportFeature(A, n, tolerance, t1, t2, rawA);
+    const int countB = supportFeature(B, -n, tolerance, t1, t2, rawB);
+    if (countA < 2 || countB < 2) return fallback;  // vertex against anything: GJK point is exact
+    // Hulls; tiny area tolerance (relative to the feature size squared) merges collinear points.
+    Point2 hullA[2 * maxFeatureVertices + 1], hullB[2 * maxFeatureVertices + 1];
+    const double scale = tolerance * tolerance * 1e-6;
+    const int nA = convexHull(rawA, countA, hullA, scale);
+    const int nB = convexHull(rawB, countB, hullB, scale);
+    if (nA < 2 || nB < 2) return fallback;  // feature collapsed to a point
+    Point2 centre;
+    if (nA >= 3 && nB >= 3) {  // face–face
+        Point2 clipped[2 * maxFeatureVertices + 2];
+        const int nC = clipPolygon(hullA, nA, hullB, nB, clipped);
+        if (nC == 0) return fallback;
+        centre = polygonCentroid(clipped, nC);
+    } else if (nA >= 3 || nB >= 3) {  // edge–face: clip the edge by the face
+        const Point2* face = nA >= 3 ? hullA : hullB;
+        const int nFace = nA >= 3 ? nA : nB;
+        const Point2* edge = nA >= 3 ? hullB : hullA;
+        Point2 p0 = edge[0], p1 = edge[1];
+        if (!clipSegment(p0, p1, face, nFace)) return fallback;
+        centre = Point2{0.5 * (p0.u + p1.u), 0.5 * (p0.v + p1.v)};
+    } else {  // edge–edge: parallel edges share an interval, crossed edges meet at the GJK point
+        const Point2 a0 = hullA[0], a1 = hullA[1], b0 = hullB[0], b1 = hullB[1];
+        const double du = a1.u - a0.u, dv = a1.v - a0.v;
+        const double lengthSquared = du * du + dv * dv;
+        const double crossing = du * (b1.v - b0.v) - dv * (b1.u - b0.u);
+        const double lengthB = std::sqrt((b1.u - b0.u) * (b1.u - b0.u) + (b1.v - b0.v) * (b1.v - b0.v));
+        if (lengthSquared <= 0.0 || std::fabs(crossing) > 1e-3 * std::sqrt(lengthSquared) * lengthB) return fallback;
+        double s0 = ((b0.u - a0.u) * du + (b0.v - a0.v) * dv) / lengthSquared;
+        double s1 = ((b1.u - a0.u) * du + (b1.v - a0.v) * dv) / lengthSquared;
+        if (s0 > s1) {
+            const double t = s0;
+            s0 = s1;
+            s1 = t;
+        }
+        const double lo = s0 > 0.0 ? s0 : 0.0, hi = s1 < 1.0 ? s1 : 1.0;
+        if (lo > hi) return fallback;
+        const double mid = 0.5 * (lo + hi);
+        centre = Point2{a0.u + mid * du, a0.v + mid * dv};
+    }
+    return centre.u * t1 + centre.v * t2 + planeHeight * n;
+}
+
+}  // namespace railcosim::polyhedra

@@ -1,0 +1,84 @@
+// YADE side of the DEM-FEM coupling: the FEM interface surface as moving facets, forces lumped to nodes.
+#pragma once
+
+#include <core/Body.hpp>
+#include <core/GlobalEngine.hpp>
+#include <core/Material.hpp>
+
+#include <memory>
+#include <string>
+#include <vector>
+
+namespace railcosim {
+class DemParticipant;
+struct NodalKinematics;
+}
+
+namespace yade {
+
+class FemCouplingEngine : public GlobalEngine {
+public:
+	void action() override;
+	void connect();
+	void finalize();
+	Real femTimeStepPy() const { return femDt; }
+	virtual ~FemCouplingEngine();
+
+	// clang-format off
+	YADE_CLASS_BASE_DOC_ATTRS_CTOR_PY(FemCouplingEngine, GlobalEngine,
+		"Couples this scene with a FreeFEM structure through the railcosim bridge (ZeroMQ). At connection the FEM "
+		"participant sends its interface surface (nodes + triangles); the engine inserts one non-dynamic :yref:`Facet` "
+		"body per triangle, moves the facet vertices with the received nodal kinematics inside each coupling window, "
+		"collects the contact forces on those facets, lumps them to the nodes with the barycentric weights of the "
+		"contact points and sends them to the FEM side once per window.\n\n"
+		"Place it in :yref:`Omega.engines` after the :yref:`InteractionLoop` and before the integrator. The coupling "
+		"window is the FEM time step; the DEM performs :yref:`FemCouplingEngine.subcycles` steps per window and "
+		":yref:`Omega.dt` is set to femTimeStep/subcycles at connection. Schemes: ``justInTime`` (DEM first, surface "
+		"extrapolated with P+V t+A t^2/2 from the last received state) and ``predictive`` (FEM first, surface moved "
+		"linearly between the FEM positions at the window ends). The FEM solver must use the same scheme.",
+		((string, endpoint, "", , "ZeroMQ endpoint of the FEM participant, e.g. ``ipc:///tmp/railcosim.sock`` or ``tcp://127.0.0.1:5555``."))
+		((string, participantName, "dem", , "Name of this participant, shown in every message of the peer."))
+		((string, scheme, "justInTime", , "Coupling scheme: ``justInTime`` or ``predictive``."))
+		((Real, timeout, 60, , "Longest wait for any message of the FEM participant [s] before giving up with an error."))
+		((Real, heartbeat, 1, , "Transport heartbeat interval [s]; a dead or frozen peer is detected within about three intervals."))
+		((int, subcycles, 0, , "DEM steps per coupling window. 0 (default): the smallest count for which femTimeStep/subcycles does not exceed the current :yref:`Omega.dt`. Omega.dt is set to femTimeStep/subcycles at connection."))
+		((bool, averageForces, false, , "Send the time average of the nodal forces over the window's DEM steps instead of those of its last step (impulse-conserving)."))
+		((shared_ptr<Material>, material, , , "Material of the inserted facets (required)."))
+		((int, mask, 1, , ":yref:`Body.groupMask` of the inserted facets."))
+		((Real, femDt, 0, Attr::readonly, "FEM time step = coupling window length [s], received at connection."))
+		((long, window, 0, Attr::readonly, "Index of the current coupling window (number of completed exchanges)."))
+		((vector<Body::id_t>, facetIds, , Attr::readonly, "Ids of the inserted facet bodies, one per interface triangle (same order)."))
+		((vector<Vector3r>, nodePositions, , Attr::readonly, "Current positions of the interface nodes in the DEM scene [m]."))
+		((vector<Vector3r>, nodeVelocities, , Attr::readonly, "Current velocities of the interface nodes in the DEM scene [m/s]."))
+		((vector<Vector3r>, nodalForces, , Attr::readonly, "Nodal forces sent at the last exchange [N] (force exerted by the particles on the structure)."))
+		((Vector3r, totalForce, Vector3r::Zero(), Attr::readonly, "Sum of :yref:`FemCouplingEngine.nodalForces` [N]."))
+		((vector<Vector3i>, triangles, , Attr::readonly, "Interface triangles as node indices."))
+		((long, exchanges, 0, Attr::readonly, "Number of completed windows (force/kinematics exchanges)."))
+		((Real, bridgeTime, 0, Attr::readonly, "Time spent inside the bridge (encoding, transfer, force lumping) [s], excluding waits for the FEM solver."))
+		((Real, waitTime, 0, Attr::readonly, "Time spent waiting for the FEM solver [s]."))
+		((bool, connected, false, Attr::readonly, "Whether the handshake with the FEM participant is done."))
+		, /* ctor */
+		, /* py */
+		.def("connect", &FemCouplingEngine::connect, "Handshake with the FEM participant now (otherwise done at the first step): receives the interface mesh, inserts the facets, sets O.dt.")
+		.def("finalize", &FemCouplingEngine::finalize, "Tell the FEM participant that the run is over (it then writes its results and exits). Idempotent.")
+	);
+	// clang-format on
+	DECLARE_LOGGER;
+
+private:
+	void               placeSurface(Real tau, bool beforeIntegrator);
+	void               collectForces(std::vector<double>& nodal) const;
+	void               exchange();
+	void               startWindow(const railcosim::NodalKinematics& start);
+
+	std::shared_ptr<railcosim::DemParticipant>   participant;
+	std::shared_ptr<railcosim::NodalKinematics>  windowStart;  // kinematics the surface motion is extrapolated from
+	std::shared_ptr<railcosim::NodalKinematics>  lastReceived; // predictive: FEM state at the window end
+	std::vector<int32_t>                         connectivity;
+	std::vector<double>                          forceSum;     // for averageForces
+	long                                         stepsInWindow = 0;
+	bool                                         predictive    = false;
+};
+REGISTER_SERIALIZABLE(FemCouplingEngine);
+
+} // namespace yade

@@ -6,6 +6,7 @@
 #include "com/Channel.hpp"
 #include "config/ParticipantConfig.hpp"
 #include "protocol/Message.hpp"
+#include "railcosim/WindowInterpolation.hpp"
 
 #include <chrono>
 #include <cmath>
@@ -42,7 +43,11 @@ public:
   BridgeStatistics& statistics() { return statistics_; }
   bool open() const { return channel_ != nullptr; }
   bool handshakeDone() const { return handshakeDone_; }
-  void setHandshakeDone() { handshakeDone_ = true; }
+  /// Statistics cover the coupled run only: the handshake (and waiting for the peer to start) is left out.
+  void setHandshakeDone() {
+    handshakeDone_ = true;
+    statistics_ = BridgeStatistics{};
+  }
   const std::string& peerName() const { return peerName_; }
   std::size_t nodeCount() const { return nodeCount_; }
   void setNodeCount(std::size_t nodes) { nodeCount_ = nodes; }
@@ -69,7 +74,7 @@ public:
   }
 
   void requireUsable(const char* call) const {
-    if (closed_) throw Error(self() + ": " + call + " called after finalize() or abort()");
+    if (closed_) throw Error(self() + ": " + call + " called after the run ended (" + closedBecause_ + ")");
     if (!handshakeDone_) throw Error(self() + ": " + call + " called before initialize() completed");
   }
 
@@ -96,10 +101,10 @@ public:
         log(LogLevel::Debug, self() + ": " + peerLabel() + " finalized before reading " + what + "; dropped");
         return;
       }
-      closed_ = true;
+      markClosed("the connection to the peer ended with an error");
       throw PeerLostError(disconnectedMessage("sending " + what));
     }
-    closed_ = true;
+    markClosed("the connection to the peer ended with an error");
     std::ostringstream text;
     text << self() << ": could not hand " << what << " to " << peerLabel() << " on " << config_.endpoint
          << " within " << formatSeconds(config_.timeoutSeconds) << " (the peer does not read its messages); "
@@ -119,7 +124,7 @@ public:
       return false;
     }
     if (header.type == protocol::MessageType::Abort) {
-      closed_ = true;
+      markClosed("the connection to the peer ended with an error");
       std::string reason;
       try {
         reason = protocol::decodeAbort(header, frame.data());
@@ -142,11 +147,11 @@ public:
     statistics_.transferSeconds += timing.transferSeconds;
     statistics_.waitSeconds += timing.waitSeconds;
     if (status == com::Status::PeerDisconnected) {
-      closed_ = true;
+      markClosed("the connection to the peer ended with an error");
       throw PeerLostError(disconnectedMessage("waiting for " + waitingFor));
     }
     if (status == com::Status::Timeout) {
-      closed_ = true;
+      markClosed("the connection to the peer ended with an error");
       std::ostringstream text;
       text << self() << ": no message from " << peerLabel() << " on " << config_.endpoint << " within "
            << formatSeconds(config_.timeoutSeconds) << " while waiting for " << waitingFor << "; ";
@@ -173,11 +178,12 @@ public:
       } catch (const ProtocolError& error) {
         reason = std::string("(unreadable reason: ") + error.what() + ")";
       }
-      closed_ = true;
+      markClosed("the connection to the peer ended with an error");
       throw PeerLostError(self() + ": " + peerLabel() + " aborted the run while this side was waiting for " +
                           waitingFor + ": " + reason);
     }
-    if (countAsExchange) {
+    // Finalize is bookkeeping, not an exchange of interface data.
+    if (countAsExchange && header.type != protocol::MessageType::Finalize) {
       ++statistics_.exchanges;
       statistics_.bytes += frame.size();
     }
@@ -209,10 +215,17 @@ public:
     rejectPeer("expected " + expected + ", got " + protocol::describe(header), expected);
   }
 
+  /// Runs an encoder with a recycled buffer; a value it refuses (NaN, infinity) becomes an Error
+  /// naming this participant, and nothing is sent.
   template <class Encode>
   std::vector<std::uint8_t> encode(Encode encode) {
     const auto start = Clock::now();
-    auto bytes = encode();
+    std::vector<std::uint8_t> bytes;
+    try {
+      bytes = encode(channel_ ? channel_->takeBuffer() : std::vector<std::uint8_t>{});
+    } catch (const ProtocolError& error) {
+      throw Error(self() + ": " + error.what());
+    }
     statistics_.encodeSeconds += secondsSince(start);
     return bytes;
   }
@@ -220,7 +233,7 @@ public:
   std::string disconnectedMessage(const std::string& doing) const {
     std::ostringstream text;
     text << self() << ": " << peerLabel() << " disconnected from " << config_.endpoint << " while " << doing
-         << "; the " << peerRole_ << " process probably died or froze (no heartbeat for "
+         << "; the " << peerRole_ << " process probably died (or froze: no heartbeat for "
          << 3 * config_.heartbeatSeconds << " s) - check its log";
     return text.str();
   }
@@ -235,7 +248,7 @@ public:
         log(LogLevel::Warning, self() + ": could not send Abort to " + peerLabel() + ": " + error.what());
       }
     }
-    closed_ = true;
+    markClosed("abort() or a rejected message");
     if (channel_) channel_->close();
   }
 
@@ -262,7 +275,7 @@ public:
         log(LogLevel::Warning, self() + ": could not send Finalize: " + error.what());
       }
     }
-    closed_ = true;
+    markClosed("finalize()");
     if (channel_) channel_->close();
   }
 
@@ -289,18 +302,33 @@ public:
       rejectPeer("both participants are named '" + config_.name + "'; give them distinct names so errors and logs "
                  "say which side is meant", waitingFor);
     }
+    if (!hello.couplingScheme.empty() && !config_.couplingScheme.empty() &&
+        hello.couplingScheme != toString(parseCouplingScheme(config_.couplingScheme))) {
+      rejectPeer("participant '" + hello.participantName + "' couples with the " + hello.couplingScheme +
+                     " scheme but this side is configured for " + config_.couplingScheme +
+                     "; both sides must use the same couplingScheme (the message order differs)",
+                 waitingFor);
+    }
     setPeerName(hello.participantName);
+    peerScheme_ = hello.couplingScheme;
   }
+
+  const std::string& peerScheme() const { return peerScheme_; }
 
   protocol::Hello ownHello() const {
     protocol::Hello hello;
     hello.role = role_;
     hello.participantName = config_.name;
     hello.unitSystem = "SI";
+    // Sent in its canonical spelling, so the peer compares names, not spellings.
+    hello.couplingScheme = config_.couplingScheme.empty() ? "" : toString(parseCouplingScheme(config_.couplingScheme));
     return hello;
   }
 
-  void markClosed() { closed_ = true; }
+  void markClosed(const std::string& because) {
+    if (!closed_) closedBecause_ = because;
+    closed_ = true;
+  }
   bool closed() const { return closed_; }
 
 private:
@@ -308,12 +336,14 @@ private:
   protocol::Role role_;
   std::string peerRole_;
   std::string peerName_;
+  std::string peerScheme_;
   std::unique_ptr<com::Channel> channel_;
   BridgeStatistics statistics_;
   std::size_t nodeCount_ = 0;
   bool handshakeDone_ = false;
   bool peerFinalized_ = false;
   bool closed_ = false;
+  std::string closedBecause_;
   int uncaughtAtStart_ = 0;
 };
 
@@ -354,8 +384,8 @@ void FemParticipant::initialize(const InterfaceMesh& mesh, double femTimeStep, c
   if (header.type != protocol::MessageType::Hello) link.unexpected(header, "Hello");
   const protocol::Hello hello = link.decodeBody([&] { return protocol::decodeHello(header, frame.data()); }, waitingFor);
   link.checkHello(hello, protocol::Role::Dem, waitingFor);
-  link.send(link.encode([&] { return protocol::encodeHello(link.ownHello()); }), "the Hello", false);
-  link.send(link.encode([&] { return protocol::encodeMesh(mesh, femTimeStep, initial); }), "the interface mesh", false);
+  link.send(link.encode([&](auto buffer) { return protocol::encodeHello(link.ownHello(), protocol::protocolVersion, std::move(buffer)); }), "the Hello", false);
+  link.send(link.encode([&](auto buffer) { return protocol::encodeMesh(mesh, femTimeStep, initial, std::move(buffer)); }), "the interface mesh", false);
   link.setNodeCount(mesh.nodeCount());
   link.setHandshakeDone();
   log(LogLevel::Info, link.self() + ": coupled with DEM participant '" + hello.participantName + "' on " +
@@ -401,12 +431,18 @@ void FemParticipant::sendKinematics(std::uint64_t window, const NodalKinematics&
     link.fail("sendKinematics: window " + std::to_string(window) + " is more than one window ahead of the forces "
               "received so far (" + std::to_string(impl_->nextForcesWindow) + " windows)");
   }
-  try {
-    kinematics.validate(link.nodeCount());
-  } catch (const Error& error) {
-    link.fail("sendKinematics(window " + std::to_string(window) + "): " + error.what());
+  // Sizes here; finiteness is checked by the encoder in the same pass as the copy.
+  const std::size_t values = 3 * link.nodeCount();
+  if (kinematics.positions.size() != values ||
+      (!kinematics.velocities.empty() && kinematics.velocities.size() != values) ||
+      (!kinematics.accelerations.empty() && kinematics.accelerations.size() != values)) {
+    link.fail("sendKinematics(window " + std::to_string(window) + "): positions/velocities/accelerations have " +
+              std::to_string(kinematics.positions.size()) + "/" + std::to_string(kinematics.velocities.size()) + "/" +
+              std::to_string(kinematics.accelerations.size()) + " values; the interface needs " +
+              std::to_string(values) + " each (velocities and accelerations may be empty)");
   }
-  link.send(link.encode([&] { return protocol::encodeKinematics(window, kinematics); }),
+  if (!std::isfinite(kinematics.time)) link.fail("sendKinematics: time is not finite");
+  link.send(link.encode([&](auto buffer) { return protocol::encodeKinematics(window, kinematics, std::move(buffer)); }),
             windowText("kinematics", window), true);
   ++impl_->nextKinematicsWindow;
 }
@@ -435,7 +471,7 @@ InterfaceSetup DemParticipant::initialize() {
   if (link.open()) link.fail("initialize() called twice");
   link.openChannel();
   // Queued by ZeroMQ until the FEM side binds; the wait below obeys the timeout.
-  link.send(link.encode([&] { return protocol::encodeHello(link.ownHello()); }), "the Hello", false);
+  link.send(link.encode([&](auto buffer) { return protocol::encodeHello(link.ownHello(), protocol::protocolVersion, std::move(buffer)); }), "the Hello", false);
   const std::string waitingFor = "the Hello of the FEM participant";
   auto [helloFrame, helloHeader] = link.receive(waitingFor, false);
   if (helloHeader.type != protocol::MessageType::Hello) link.unexpected(helloHeader, "Hello");
@@ -457,6 +493,7 @@ InterfaceSetup DemParticipant::initialize() {
   result.mesh = std::move(setup.mesh);
   result.femTimeStep = setup.femTimeStep;
   result.initial = std::move(setup.initial);
+  result.couplingScheme = link.peerScheme();
   return result;
 }
 
@@ -483,13 +520,7 @@ void DemParticipant::sendForces(const ForceMessage& message) {
               std::to_string(3 * link.nodeCount()));
   }
   if (!std::isfinite(message.time)) link.fail("sendForces: time is not finite");
-  for (std::size_t i = 0; i < message.forces.size(); ++i) {
-    if (!std::isfinite(message.forces[i])) {
-      link.fail("sendForces(window " + std::to_string(message.window) + "): forces[" + std::to_string(i) + "] (node " +
-                std::to_string(i / 3) + ") is not finite; the DEM solution diverged?");
-    }
-  }
-  link.send(link.encode([&] { return protocol::encodeForces(message); }), windowText("forces", message.window), true);
+  link.send(link.encode([&](auto buffer) { return protocol::encodeForces(message, std::move(buffer)); }), windowText("forces", message.window), true);
   ++impl_->nextForcesWindow;
 }
 

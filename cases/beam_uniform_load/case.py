@@ -30,7 +30,7 @@ def _average_steps(p):
 
 
 def fem_command(p, endpoint, out):
-    return (["FreeFem++", "-nw", _solver(), "-mode", "coupled", "-endpoint", endpoint, "-scheme", p["scheme"],
+    return (["FreeFem++", "-nw", "-v", "0", _solver(), "-mode", "coupled", "-endpoint", endpoint, "-scheme", p["scheme"],
              "-dt", str(p["fem_dt"]), "-rayleighMass", str(p["rayleigh_mass"]),
              "-averageSteps", str(_average_steps(p)), "-progressEvery", "100", "-out", os.path.join(out, "fem")]
             + _beam_arguments(p))
@@ -47,7 +47,7 @@ def _top_pressure(p):
 
 def reference_runs(p, out):
     """The same FreeFEM beam under the equivalent uniform pressure, lumped to the same surface nodes."""
-    return [("direct_fem", ["FreeFem++", "-nw", _solver(), "-mode", "static", "-pressure", str(_top_pressure(p)),
+    return [("direct_fem", ["FreeFem++", "-nw", "-v", "0", _solver(), "-mode", "static", "-pressure", str(_top_pressure(p)),
                             "-load", "lumped", "-out", os.path.join(out, "direct_fem")] + _beam_arguments(p))]
 
 
@@ -72,8 +72,8 @@ def postprocess(p, out):
     monitor = results.read_csv_columns(os.path.join(out, "fem", "fem_monitor.csv"))
     series = dict(np.load(os.path.join(out, "dem_timeseries.npz")))
 
-    coupled = -fem["monitor_average"][2]       # downward deflection, positive
-    direct_deflection = -direct["monitor_final"][2]
+    coupled = -fem["averageMonitorDisplacement"][2]       # downward deflection, positive
+    direct_deflection = -direct["finalMonitorDisplacement"][2]
     closed = closed_form_deflection(p)
     weight = dem["total_particle_mass_kg"] * GRAVITY
     window = series["time"] >= series["time"][-1] - p["average_s"]
@@ -112,8 +112,8 @@ def postprocess(p, out):
         "dem": {"steps": dem["steps"], "dt": dem["dt"], "particles": dem["particles"]},
         "fem": {"steps": fem.get("steps"), "dt": fem.get("dt"), "nodes": fem.get("nodes")},
         "coupling": {"scheme": dem["scheme"], "exchanges": dem["exchanges"], "subcycles": dem["subcycles"],
-                     "bridge_time_s": dem["bridge_time_s"] + fem.get("bridge_seconds", 0.0),
-                     "bridge_time_per_exchange_s": (dem["bridge_time_s"] + fem.get("bridge_seconds", 0.0))
+                     "bridge_time_s": dem["bridge_time_s"] + fem.get("bridgeSeconds", 0.0),
+                     "bridge_time_per_exchange_s": (dem["bridge_time_s"] + fem.get("bridgeSeconds", 0.0))
                      / max(1, dem["exchanges"])},
         "metrics": {"midspan_deflection_m": coupled, "direct_fem_deflection_m": direct_deflection,
                     "closed_form_deflection_m": closed, "total_particle_mass_kg": dem["total_particle_mass_kg"],

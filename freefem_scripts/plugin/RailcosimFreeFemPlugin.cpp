@@ -31,9 +31,7 @@
 #include "railcosim/InterfaceMesh.hpp"
 #include "railcosim/Participant.hpp"
 
-#include <cmath>
 #include <cstdint>
-#include <exception>
 #include <memory>
 #include <optional>
 #include <sstream>

@@ -2,9 +2,18 @@
 #pragma once
 
 #include <cmath>
+#include <cstdint>
 
 #include "kernels/HostDevice.hpp"
 #include "kernels/Vector3.hpp"
+
+// Keeps a large, rarely hot function out of line in device code, where inlining it into the force kernel
+// would add its whole stack frame and register demand to every thread.
+#if defined(__CUDACC__)
+#define RAILCOSIM_POLYHEDRA_NOINLINE __noinline__
+#else
+#define RAILCOSIM_POLYHEDRA_NOINLINE
+#endif
 
 namespace railcosim::polyhedra {
 
@@ -77,32 +86,40 @@ RAILCOSIM_HOST_DEVICE inline Vec3 applyTransposed(const Rotation& r, const Vec3&
 // A stone uses its template's vertices; a wall triangle passes its 3 world vertices with identity.
 // ---------------------------------------------------------------------------------------------------
 struct ConvexCore {
-    const double* vertices;  // 3 per vertex, local frame [m]
+    const double* vertices;        // 3 per vertex, local frame [m]
     int vertexCount;
-    Rotation rotation;       // local -> world
-    Vec3 position;           // world position of the local origin [m]
+    Rotation rotation;             // local -> world
+    Vec3 position;                 // world position of the local origin [m]
+    const std::int32_t* indices;   // optional: vertex k is vertices[3 * indices[k]] (a triangle of a mesh)
 };
 
-RAILCOSIM_HOST_DEVICE inline Vec3 vertexWorld(const ConvexCore& core, int index) {
-    const double* v = core.vertices + 3 * index;
+RAILCOSIM_HOST_DEVICE inline const double* vertexData(const ConvexCore& core, int k) {
+    return core.vertices + 3 * (core.indices != nullptr ? core.indices[k] : k);
+}
+
+RAILCOSIM_HOST_DEVICE inline Vec3 vertexWorld(const ConvexCore& core, int k) {
+    const double* v = vertexData(core, k);
     return core.position + apply(core.rotation, Vec3{v[0], v[1], v[2]});
 }
 
-// Support point: the vertex farthest along the world direction d (O(V), the only per-vertex work of GJK).
-RAILCOSIM_HOST_DEVICE inline Vec3 support(const ConvexCore& core, const Vec3& direction) {
+// Support vertex: index of the vertex farthest along the world direction d (O(V), the only per-vertex work
+// of GJK; the templates are shared, so their vertices come from the cache).
+RAILCOSIM_HOST_DEVICE inline int supportIndex(const ConvexCore& core, const Vec3& direction) {
     const Vec3 local = applyTransposed(core.rotation, direction);
     int best = 0;
     double bestValue = -1e300;
     for (int k = 0; k < core.vertexCount; ++k) {
-        const double* v = core.vertices + 3 * k;
+        const double* v = vertexData(core, k);
         const double value = v[0] * local.x + v[1] * local.y + v[2] * local.z;
         if (value > bestValue) {
             bestValue = value;
             best = k;
         }
     }
-    return vertexWorld(core, best);
+    return best;
 }
+
+RAILCOSIM_HOST_DEVICE inline Vec3 support(const ConvexCore& core, const Vec3& direction) { return vertexWorld(core, supportIndex(core, direction)); }
 
 // ---------------------------------------------------------------------------------------------------
 // GJK distance between two convex cores (Gilbert, Johnson & Keerthi 1988) on the Minkowski difference
@@ -111,6 +128,7 @@ RAILCOSIM_HOST_DEVICE inline Vec3 support(const ConvexCore& core, const Vec3& di
 // ---------------------------------------------------------------------------------------------------
 struct CoreDistance {
     bool intersecting;  // cores overlap (distance 0): only possible when the dilated overlap exceeds r_A + r_B
+    bool beyondCutoff;  // proven farther apart than the cutoff: distance is then only a lower bound
     double distance;    // Δ between the cores [m]
     Vec3 pointA;        // closest point on core A [m]
     Vec3 pointB;        // closest point on core B [m]
@@ -119,112 +137,144 @@ struct CoreDistance {
 
 namespace detail {
 
+// Simplex vertices are named, not indexed: every access uses a compile-time position, so the simplex stays
+// in registers on the GPU (an indexed array went to local memory and dominated the force kernel's time).
+// A simplex vertex is the pair of support vertex indices (A's, B's): two integers instead of six doubles
+// keep the whole simplex in a few registers; coordinates are recomputed from the shared templates.
 struct SimplexVertex {
-    Vec3 w;  // a − b
-    Vec3 a;
-    Vec3 b;
+    int a;  // vertex of A
+    int b;  // vertex of B; the Minkowski-difference point is a − b
 };
 
 struct Simplex {
-    SimplexVertex v[4];
+    SimplexVertex p0, p1, p2, p3;
     int count;
 };
 
-// Reduces the simplex to the sub-simplex whose affine hull holds the point closest to the origin and
-// returns that point with barycentric weights in `weights`. Returns false when the origin lies inside a
-// tetrahedron (the cores intersect).
-RAILCOSIM_HOST_DEVICE inline bool closestOnSimplex(Simplex& s, double weights[4], Vec3& closest);
+// Barycentric weights of the closest point, matching p0..p3.
+struct Weights {
+    double w0, w1, w2, w3;
+};
 
-RAILCOSIM_HOST_DEVICE inline void closestOnSegment(Simplex& s, double weights[4], Vec3& closest) {
-    const Vec3 a = s.v[0].w, b = s.v[1].w;
+// Bodies of the current query, so that simplex vertices can be turned into coordinates.
+struct Pair {
+    const ConvexCore& A;
+    const ConvexCore& B;
+};
+
+RAILCOSIM_HOST_DEVICE inline Vec3 point(const Pair& pair, const SimplexVertex& v) { return vertexWorld(pair.A, v.a) - vertexWorld(pair.B, v.b); }
+
+// Closest point of segment (P, Q) to the origin; reduces to the sub-simplex holding it.
+RAILCOSIM_HOST_DEVICE inline void closestOnSegment(const Pair& pair, const SimplexVertex& P, const SimplexVertex& Q, Simplex& out,
+                                                   Weights& weights, Vec3& closest) {
+    const Vec3 a = point(pair, P), b = point(pair, Q);
     const Vec3 ab = b - a;
     const double denominator = kernels::dot(ab, ab);
-    double t = denominator > 0.0 ? -kernels::dot(a, ab) / denominator : 0.0;
+    const double t = denominator > 0.0 ? -kernels::dot(a, ab) / denominator : 0.0;
     if (t <= 0.0) {
-        s.count = 1;
-        weights[0] = 1.0;
+        out.p0 = P;
+        out.count = 1;
+        weights = Weights{1.0, 0.0, 0.0, 0.0};
         closest = a;
     } else if (t >= 1.0) {
-        s.v[0] = s.v[1];
-        s.count = 1;
-        weights[0] = 1.0;
+        out.p0 = Q;
+        out.count = 1;
+        weights = Weights{1.0, 0.0, 0.0, 0.0};
         closest = b;
     } else {
-        weights[0] = 1.0 - t;
-        weights[1] = t;
+        out.p0 = P;
+        out.p1 = Q;
+        out.count = 2;
+        weights = Weights{1.0 - t, t, 0.0, 0.0};
         closest = a + t * ab;
     }
 }
 
-// Closest point of triangle (v0,v1,v2) of the simplex to the origin; Ericson §5.1.5 with p = 0.
-RAILCOSIM_HOST_DEVICE inline void closestOnTriangle(Simplex& s, double weights[4], Vec3& closest) {
-    const SimplexVertex A = s.v[0], B = s.v[1], C = s.v[2];
-    const Vec3 a = A.w, b = B.w, c = C.w;
-    const Vec3 ab = b - a, ac = c - a, ap = -a;
-    const double d1 = kernels::dot(ab, ap), d2 = kernels::dot(ac, ap);
+// Closest point of triangle (P, Q, R) to the origin; Ericson §5.1.5 with p = 0.
+RAILCOSIM_HOST_DEVICE inline void closestOnTriangle(const Pair& pair, const SimplexVertex& P, const SimplexVertex& Q, const SimplexVertex& R,
+                                                    Simplex& out, Weights& weights, Vec3& closest) {
+    const Vec3 a = point(pair, P), b = point(pair, Q), c = point(pair, R);
+    const Vec3 ab = b - a, ac = c - a;
+    const double d1 = kernels::dot(ab, -a), d2 = kernels::dot(ac, -a);
     if (d1 <= 0.0 && d2 <= 0.0) {
-        s.v[0] = A;
-        s.count = 1;
-        weights[0] = 1.0;
+        out.p0 = P;
+        out.count = 1;
+        weights = Weights{1.0, 0.0, 0.0, 0.0};
         closest = a;
         return;
     }
-    const Vec3 bp = -b;
-    const double d3 = kernels::dot(ab, bp), d4 = kernels::dot(ac, bp);
+    const double d3 = kernels::dot(ab, -b), d4 = kernels::dot(ac, -b);
     if (d3 >= 0.0 && d4 <= d3) {
-        s.v[0] = B;
-        s.count = 1;
-        weights[0] = 1.0;
+        out.p0 = Q;
+        out.count = 1;
+        weights = Weights{1.0, 0.0, 0.0, 0.0};
         closest = b;
         return;
     }
     const double vc = d1 * d4 - d3 * d2;
     if (vc <= 0.0 && d1 >= 0.0 && d3 <= 0.0) {
         const double t = d1 / (d1 - d3);
-        s.v[0] = A;
-        s.v[1] = B;
-        s.count = 2;
-        weights[0] = 1.0 - t;
-        weights[1] = t;
+        out.p0 = P;
+        out.p1 = Q;
+        out.count = 2;
+        weights = Weights{1.0 - t, t, 0.0, 0.0};
         closest = a + t * ab;
         return;
     }
-    const Vec3 cp = -c;
-    const double d5 = kernels::dot(ab, cp), d6 = kernels::dot(ac, cp);
+    const double d5 = kernels::dot(ab, -c), d6 = kernels::dot(ac, -c);
     if (d6 >= 0.0 && d5 <= d6) {
-        s.v[0] = C;
-        s.count = 1;
-        weights[0] = 1.0;
+        out.p0 = R;
+        out.count = 1;
+        weights = Weights{1.0, 0.0, 0.0, 0.0};
         closest = c;
         return;
     }
     const double vb = d5 * d2 - d1 * d6;
     if (vb <= 0.0 && d2 >= 0.0 && d6 <= 0.0) {
         const double t = d2 / (d2 - d6);
-        s.v[0] = A;
-        s.v[1] = C;
-        s.count = 2;
-        weights[0] = 1.0 - t;
-        weights[1] = t;
+        out.p0 = P;
+        out.p1 = R;
+        out.count = 2;
+        weights = Weights{1.0 - t, t, 0.0, 0.0};
         closest = a + t * ac;
         return;
     }
     const double va = d3 * d6 - d5 * d4;
     if (va <= 0.0 && (d4 - d3) >= 0.0 && (d5 - d6) >= 0.0) {
         const double t = (d4 - d3) / ((d4 - d3) + (d5 - d6));
-        s.v[0] = B;
-        s.v[1] = C;
-        s.count = 2;
-        weights[0] = 1.0 - t;
-        weights[1] = t;
+        out.p0 = Q;
+        out.p1 = R;
+        out.count = 2;
+        weights = Weights{1.0 - t, t, 0.0, 0.0};
         closest = b + t * (c - b);
         return;
     }
-    const double denominator = 1.0 / (va + vb + vc);
+    const double sum = va + vb + vc;
+    if (!(sum > 1e-24 * kernels::squaredNorm(kernels::cross(ab, ac)) + 1e-300)) {
+        // Collinear (degenerate) triangle: the barycentric solve is undefined; keep the closest edge.
+        Simplex e1, e2, e3;
+        Weights w1, w2, w3;
+        Vec3 c1, c2, c3;
+        closestOnSegment(pair, P, Q, e1, w1, c1);
+        closestOnSegment(pair, P, R, e2, w2, c2);
+        closestOnSegment(pair, Q, R, e3, w3, c3);
+        const double n1 = kernels::dot(c1, c1), n2 = kernels::dot(c2, c2), n3 = kernels::dot(c3, c3);
+        if (n1 <= n2 && n1 <= n3) {
+            out = e1, weights = w1, closest = c1;
+        } else if (n2 <= n3) {
+            out = e2, weights = w2, closest = c2;
+        } else {
+            out = e3, weights = w3, closest = c3;
+        }
+        return;
+    }
+    const double denominator = 1.0 / sum;
     const double v = vb * denominator, w = vc * denominator;
-    weights[0] = 1.0 - v - w;
-    weights[1] = v;
-    weights[2] = w;
+    out.p0 = P;
+    out.p1 = Q;
+    out.p2 = R;
+    out.count = 3;
+    weights = Weights{1.0 - v - w, v, w, 0.0};
     closest = a + v * ab + w * ac;
 }
 
@@ -236,81 +286,103 @@ RAILCOSIM_HOST_DEVICE inline bool originOutsideFace(const Vec3& a, const Vec3& b
     return signOrigin * signOpposite < 0.0;
 }
 
-RAILCOSIM_HOST_DEVICE inline bool closestOnTetrahedron(Simplex& s, double weights[4], Vec3& closest) {
-    const SimplexVertex P[4] = {s.v[0], s.v[1], s.v[2], s.v[3]};
-    // Faces as (i, j, k, opposite).
-    const int faces[4][4] = {{0, 1, 2, 3}, {0, 2, 3, 1}, {0, 3, 1, 2}, {1, 3, 2, 0}};
-    double bestDistance = 1e300;
-    bool anyOutside = false;
-    Simplex best = s;
-    double bestWeights[4] = {1.0, 0.0, 0.0, 0.0};
-    Vec3 bestPoint = P[0].w;
-    for (int f = 0; f < 4; ++f) {
-        const SimplexVertex A = P[faces[f][0]], B = P[faces[f][1]], C = P[faces[f][2]], D = P[faces[f][3]];
-        if (!originOutsideFace(A.w, B.w, C.w, D.w)) continue;
-        anyOutside = true;
-        Simplex face;
-        face.v[0] = A;
-        face.v[1] = B;
-        face.v[2] = C;
-        face.count = 3;
-        double faceWeights[4];
-        Vec3 point;
-        closestOnTriangle(face, faceWeights, point);
-        const double distance = kernels::dot(point, point);
-        if (distance < bestDistance) {
-            bestDistance = distance;
-            best = face;
-            for (int k = 0; k < 4; ++k) bestWeights[k] = faceWeights[k];
-            bestPoint = point;
-        }
+// Considers face (P, Q, R) with opposite vertex S and keeps it in `best` if it is nearer to the origin.
+RAILCOSIM_HOST_DEVICE inline void tetrahedronFace(const Pair& pair, const SimplexVertex& P, const SimplexVertex& Q, const SimplexVertex& R,
+                                                  const Vec3& p, const Vec3& q, const Vec3& r, const Vec3& opposite, bool flat, bool& anyOutside,
+                                                  double& bestDistance, Simplex& best, Weights& bestWeights, Vec3& bestPoint) {
+    if (!flat && !originOutsideFace(p, q, r, opposite)) return;
+    anyOutside = true;
+    Simplex face;
+    Weights weights;
+    Vec3 closest;
+    closestOnTriangle(pair, P, Q, R, face, weights, closest);
+    const double distance = kernels::dot(closest, closest);
+    if (distance < bestDistance) {
+        bestDistance = distance;
+        best = face;
+        bestWeights = weights;
+        bestPoint = closest;
     }
+}
+
+// Closest point of the tetrahedron in `s` to the origin, reducing `s`; false if the origin is inside.
+RAILCOSIM_HOST_DEVICE inline bool closestOnTetrahedron(const Pair& pair, Simplex& s, Weights& weights, Vec3& closest) {
+    const Vec3 x0 = point(pair, s.p0), x1 = point(pair, s.p1), x2 = point(pair, s.p2), x3 = point(pair, s.p3);
+    // A flat (degenerate) tetrahedron arises in face–face contacts, where support points of parallel faces
+    // are coplanar: its faces cannot separate anything, so all of them are searched instead of reporting
+    // a false intersection.
+    double longest = kernels::squaredNorm(x1 - x0);
+    longest = fmax(longest, kernels::squaredNorm(x2 - x0));
+    longest = fmax(longest, kernels::squaredNorm(x3 - x0));
+    longest = fmax(longest, kernels::squaredNorm(x2 - x1));
+    longest = fmax(longest, kernels::squaredNorm(x3 - x1));
+    longest = fmax(longest, kernels::squaredNorm(x3 - x2));
+    const double volume6 = std::fabs(kernels::dot(x3 - x0, kernels::cross(x1 - x0, x2 - x0)));
+    const bool flat = volume6 <= 1e-9 * longest * std::sqrt(longest);
+    bool anyOutside = false;
+    double bestDistance = 1e300;
+    Simplex best = s;
+    Weights bestWeights{1.0, 0.0, 0.0, 0.0};
+    Vec3 bestPoint = x0;
+    tetrahedronFace(pair, s.p0, s.p1, s.p2, x0, x1, x2, x3, flat, anyOutside, bestDistance, best, bestWeights, bestPoint);
+    tetrahedronFace(pair, s.p0, s.p2, s.p3, x0, x2, x3, x1, flat, anyOutside, bestDistance, best, bestWeights, bestPoint);
+    tetrahedronFace(pair, s.p0, s.p3, s.p1, x0, x3, x1, x2, flat, anyOutside, bestDistance, best, bestWeights, bestPoint);
+    tetrahedronFace(pair, s.p1, s.p3, s.p2, x1, x3, x2, x0, flat, anyOutside, bestDistance, best, bestWeights, bestPoint);
     if (!anyOutside) return false;
     s = best;
-    for (int k = 0; k < 4; ++k) weights[k] = bestWeights[k];
+    weights = bestWeights;
     closest = bestPoint;
     return true;
 }
 
-RAILCOSIM_HOST_DEVICE inline bool closestOnSimplex(Simplex& s, double weights[4], Vec3& closest) {
+// Reduces the simplex to the sub-simplex whose affine hull holds the point closest to the origin and
+// returns that point with barycentric weights. False when the origin lies inside a tetrahedron.
+RAILCOSIM_HOST_DEVICE inline bool closestOnSimplex(const Pair& pair, Simplex& s, Weights& weights, Vec3& closest) {
     switch (s.count) {
     case 1:
-        weights[0] = 1.0;
-        closest = s.v[0].w;
+        weights = Weights{1.0, 0.0, 0.0, 0.0};
+        closest = point(pair, s.p0);
         return true;
-    case 2:
-        closestOnSegment(s, weights, closest);
+    case 2: {
+        const SimplexVertex P = s.p0, Q = s.p1;
+        closestOnSegment(pair, P, Q, s, weights, closest);
         return true;
-    case 3:
-        closestOnTriangle(s, weights, closest);
+    }
+    case 3: {
+        const SimplexVertex P = s.p0, Q = s.p1, R = s.p2;
+        closestOnTriangle(pair, P, Q, R, s, weights, closest);
         return true;
+    }
     default:
-        return closestOnTetrahedron(s, weights, closest);
+        return closestOnTetrahedron(pair, s, weights, closest);
     }
 }
+
+RAILCOSIM_HOST_DEVICE inline bool sameSupport(const SimplexVertex& v, int a, int b) { return v.a == a && v.b == b; }
 
 }  // namespace detail
 
 // initialDirection: any guess of the direction from A to B (a cached contact normal makes GJK converge
-// in one or two iterations for persistent contacts, the "warm start").
-RAILCOSIM_HOST_DEVICE inline CoreDistance coreDistance(const ConvexCore& A, const ConvexCore& B, const Vec3& initialDirection) {
+// in one or two iterations for persistent contacts, the "warm start"). cutoff: GJK stops as soon as a
+// separating direction proves the distance ≥ cutoff (most neighbour-list candidates are not in contact,
+// and the exact distance of those is never needed); pass a huge value for the exact distance.
+RAILCOSIM_HOST_DEVICE inline CoreDistance coreDistance(const ConvexCore& A, const ConvexCore& B, const Vec3& initialDirection,
+                                                       double cutoff = 1e300) {
     // Relative tolerance on the squared distance (double precision: ~1e-12 of the distance itself is
     // far below any overlap that matters, 1e-3 r_d in the tests).
     constexpr double relativeTolerance = 1e-12;
     constexpr int maxIterations = 64;
+    const detail::Pair pair{A, B};
     detail::Simplex s;
     Vec3 direction = initialDirection;
     if (kernels::squaredNorm(direction) < 1e-300) direction = Vec3{1.0, 0.0, 0.0};
     // First vertex of A − B: support of A along −(B−A) and of B along +(B−A), i.e. the facing features.
-    {
-        const Vec3 a = support(A, direction);
-        const Vec3 b = support(B, -direction);
-        s.v[0] = detail::SimplexVertex{a - b, a, b};
-        s.count = 1;
-    }
-    double weights[4] = {1.0, 0.0, 0.0, 0.0};
-    Vec3 v = s.v[0].w;
-    CoreDistance result{false, 0.0, s.v[0].a, s.v[0].b, 0};
+    s.p0 = detail::SimplexVertex{supportIndex(A, direction), supportIndex(B, -direction)};
+    s.p1 = s.p2 = s.p3 = s.p0;
+    s.count = 1;
+    detail::Weights weights{1.0, 0.0, 0.0, 0.0};
+    Vec3 v = detail::point(pair, s.p0);
+    CoreDistance result{false, false, 0.0, Vec3{0.0, 0.0, 0.0}, Vec3{0.0, 0.0, 0.0}, 0};
     int iteration = 0;
     for (; iteration < maxIterations; ++iteration) {
         const double vv = kernels::dot(v, v);
@@ -318,28 +390,51 @@ RAILCOSIM_HOST_DEVICE inline CoreDistance coreDistance(const ConvexCore& A, cons
             result.intersecting = true;
             break;
         }
-        const Vec3 a = support(A, -v);
-        const Vec3 b = support(B, v);
-        const Vec3 w = a - b;
-        // Convergence: no support point gets closer than v by more than the tolerance (GJK's lower bound).
-        if (vv - kernels::dot(v, w) <= relativeTolerance * vv) break;
-        bool duplicate = false;
-        for (int k = 0; k < s.count; ++k) {
-            if (kernels::squaredNorm(s.v[k].w - w) < 1e-30) duplicate = true;
+        const int a = supportIndex(A, -v);
+        const int b = supportIndex(B, v);
+        const Vec3 w = vertexWorld(A, a) - vertexWorld(B, b);
+        // v̂·w is the separation of A and B along v̂, a lower bound of the distance.
+        const double separation = kernels::dot(v, w);
+        if (separation > 0.0 && separation * separation >= cutoff * cutoff * vv) {
+            result.beyondCutoff = true;
+            result.distance = separation / std::sqrt(vv);
+            result.iterations = iteration;
+            return result;
         }
+        // Convergence: no support point gets closer than v by more than the tolerance (GJK's lower bound).
+        if (vv - separation <= relativeTolerance * vv) break;
+        // A support pair already in the simplex means no progress is possible (numerical termination).
+        bool duplicate = detail::sameSupport(s.p0, a, b);
+        if (s.count > 1) duplicate = duplicate || detail::sameSupport(s.p1, a, b);
+        if (s.count > 2) duplicate = duplicate || detail::sameSupport(s.p2, a, b);
         if (duplicate) break;
-        s.v[s.count] = detail::SimplexVertex{w, a, b};
+        const detail::SimplexVertex added{a, b};
+        if (s.count == 1) {
+            s.p1 = added;
+        } else if (s.count == 2) {
+            s.p2 = added;
+        } else {
+            s.p3 = added;
+        }
         ++s.count;
-        if (!detail::closestOnSimplex(s, weights, v)) {
+        if (!detail::closestOnSimplex(pair, s, weights, v)) {
             result.intersecting = true;
             break;
         }
     }
     result.iterations = iteration;
-    Vec3 pa{0.0, 0.0, 0.0}, pb{0.0, 0.0, 0.0};
-    for (int k = 0; k < s.count; ++k) {
-        pa += weights[k] * s.v[k].a;
-        pb += weights[k] * s.v[k].b;
+    Vec3 pa = weights.w0 * vertexWorld(A, s.p0.a), pb = weights.w0 * vertexWorld(B, s.p0.b);
+    if (s.count > 1) {
+        pa += weights.w1 * vertexWorld(A, s.p1.a);
+        pb += weights.w1 * vertexWorld(B, s.p1.b);
+    }
+    if (s.count > 2) {
+        pa += weights.w2 * vertexWorld(A, s.p2.a);
+        pb += weights.w2 * vertexWorld(B, s.p2.b);
+    }
+    if (s.count > 3) {
+        pa += weights.w3 * vertexWorld(A, s.p3.a);
+        pb += weights.w3 * vertexWorld(B, s.p3.b);
     }
     result.pointA = pa;
     result.pointB = pb;
@@ -480,13 +575,13 @@ RAILCOSIM_HOST_DEVICE inline int supportFeature(const ConvexCore& core, const Ve
     const Vec3 local = applyTransposed(core.rotation, direction);
     double best = -1e300;
     for (int k = 0; k < core.vertexCount; ++k) {
-        const double* v = core.vertices + 3 * k;
+        const double* v = vertexData(core, k);
         const double h = v[0] * local.x + v[1] * local.y + v[2] * local.z;
         if (h > best) best = h;
     }
     int count = 0;
     for (int k = 0; k < core.vertexCount && count < maxFeatureVertices; ++k) {
-        const double* v = core.vertices + 3 * k;
+        const double* v = vertexData(core, k);
         const double h = v[0] * local.x + v[1] * local.y + v[2] * local.z;
         if (h >= best - tolerance) {
             const Vec3 world = vertexWorld(core, k);
@@ -508,7 +603,7 @@ RAILCOSIM_HOST_DEVICE inline void tangentBasis(const Vec3& n, Vec3& t1, Vec3& t2
 
 // Contact point in the mid-plane of the dilated overlap. `planeHeight` is that plane's position along n,
 // `fallback` the GJK mid-point; `tolerance` the support-height band that counts as one feature [m].
-RAILCOSIM_HOST_DEVICE inline Vec3 contactPatchCentre(const ConvexCore& A, const ConvexCore& B, const Vec3& n, double planeHeight,
+RAILCOSIM_HOST_DEVICE RAILCOSIM_POLYHEDRA_NOINLINE inline Vec3 contactPatchCentre(const ConvexCore& A, const ConvexCore& B, const Vec3& n, double planeHeight,
                                                      const Vec3& fallback, double tolerance) {
     using namespace detail;
     Vec3 t1, t2;

@@ -40,8 +40,9 @@ RAILCOSIM_HOST_DEVICE inline double rollingResistanceMoment(double rollingArm, d
 // In both cases ω_new = (h/I)(1 − min(1, M_r/|T_stop|)) T_stop: the resistance can bring the spin to zero
 // but never past it. The torque follows T_stop, not the relative rotation, which makes it frame-
 // independent (Fig. 5.9). Valid for isotropic inertia (spheres; the thesis uses no rolling friction on
-// clusters). With YADE's Cundall damping > 0 the integrator scales the torque after this step, which
-// only reduces |ω_new| further. [N m]
+// clusters). The bound assumes the integrator applies the torque unmodified: YADE's Cundall damping
+// amplifies a torque that opposes the spin by (1 + damping) and would push a stopped spin past zero, so
+// bodies with rolling friction need damping = 0 (the thesis uses contact damping only). [N m]
 RAILCOSIM_HOST_DEVICE inline Vec3 boundedRollingTorque(const Vec3& angularVelocity, double momentOfInertia,
                                                        double rotationTimeIncrement, const Vec3& appliedTorque,
                                                        double rollingResistanceBudget) {

@@ -75,7 +75,9 @@ RAILCOSIM_HOST_DEVICE inline double hertzElasticNormalForce(const HertzMindlinPa
 
 // Viscous coefficient c = 2 γ sqrt(m* k) (eqs. 3.15 and 3.26b; pass k_n for normal, k_t for tangential —
 // the digest's erratum 5 resolves eq. 3.22 in favour of k_t). [N s/m]
+// An undamped contact returns exactly 0 even when m* is infinite (two non-dynamic bodies), instead of 0·∞.
 RAILCOSIM_HOST_DEVICE inline double viscousDampingCoefficient(double dampingRatio, double effectiveMass, double stiffness) {
+    if (dampingRatio == 0.0) return 0.0;
     return 2.0 * dampingRatio * std::sqrt(effectiveMass * stiffness);
 }
 

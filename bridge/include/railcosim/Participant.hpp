@@ -18,6 +18,8 @@ struct ParticipantConfig {
   std::string endpoint;             // ZeroMQ endpoint, e.g. "ipc:///tmp/railcosim-1234.sock" or "tcp://127.0.0.1:5555"
   double timeoutSeconds = 60.0;     // longest wait for any expected message before PeerLostError
   double heartbeatSeconds = 1.0;    // transport heartbeat: a frozen or dead peer is detected in ~3x this
+  std::string couplingScheme;       // optional "justInTime" | "predictive": announced at the handshake;
+                                    // when both sides name one, a mismatch is refused there
 };
 
 /// What the DEM side learns at the handshake.
@@ -26,6 +28,7 @@ struct InterfaceSetup {
   InterfaceMesh mesh;               // surface nodes + triangles at t = 0
   double femTimeStep = 0.0;         // s; the coupling window length
   NodalKinematics initial;          // kinematics at t = 0
+  std::string couplingScheme;       // the FEM side's ParticipantConfig::couplingScheme ("" if it named none)
 };
 
 /// Nodal forces of one coupling window (DEM -> FEM).

@@ -10,8 +10,12 @@
 #include <cerrno>
 #include <chrono>
 #include <cstring>
+#include <memory>
+#include <mutex>
 #include <set>
 #include <sstream>
+#include <sys/stat.h>
+#include <unistd.h>
 
 namespace railcosim::com {
 namespace {
@@ -34,9 +38,36 @@ void setIntOption(void* socket, int option, int value, const char* name) {
   }
 }
 
-void freeVector(void* /*data*/, void* hint) { delete static_cast<std::vector<std::uint8_t>*>(hint); }
+/// Buffers handed back by ZeroMQ once sent (from its I/O thread), for the next message to reuse.
+struct BufferPool {
+  std::mutex mutex;
+  std::vector<std::vector<std::uint8_t>> buffers;
+  static constexpr std::size_t kept = 4;  // enough for a message in flight each way plus slack
+};
+
+struct SentBuffer {
+  std::vector<std::uint8_t> bytes;
+  std::shared_ptr<BufferPool> pool;  // shared: ZeroMQ may release the message after the Channel is gone
+};
+
+void releaseSentBuffer(void* /*data*/, void* hint) {
+  std::unique_ptr<SentBuffer> sent(static_cast<SentBuffer*>(hint));
+  std::lock_guard<std::mutex> lock(sent->pool->mutex);
+  if (sent->pool->buffers.size() < BufferPool::kept) sent->pool->buffers.push_back(std::move(sent->bytes));
+}
 
 std::atomic<unsigned long> monitorCounter{0};
+
+/// libzmq leaves the socket file of a bound ipc endpoint behind; the binding side removes it.
+void removeIpcFile(const ChannelOptions& options) {
+  const std::string prefix = "ipc://";
+  if (options.side != Side::Bind || options.endpoint.rfind(prefix, 0) != 0) return;
+  const std::string path = options.endpoint.substr(prefix.size());
+  struct stat status {};
+  if (!path.empty() && path[0] != '@' && ::lstat(path.c_str(), &status) == 0 && S_ISSOCK(status.st_mode)) {
+    ::unlink(path.c_str());
+  }
+}
 
 } // namespace
 
@@ -61,7 +92,16 @@ struct Channel::Impl {
   std::set<int> peerConnections;  // file descriptors of established transport connections
   bool seen = false;
   bool disconnected = false;
+  std::shared_ptr<BufferPool> pool = std::make_shared<BufferPool>();
 };
+
+std::vector<std::uint8_t> Channel::takeBuffer() {
+  std::lock_guard<std::mutex> lock(impl_->pool->mutex);
+  if (impl_->pool->buffers.empty()) return {};
+  std::vector<std::uint8_t> buffer = std::move(impl_->pool->buffers.back());
+  impl_->pool->buffers.pop_back();
+  return buffer;
+}
 
 Channel::Channel(ChannelOptions options) : impl_(std::make_unique<Impl>()) {
   impl_->options = std::move(options);
@@ -131,12 +171,20 @@ void Channel::close() {
     while (zmq_ctx_term(impl_->context) != 0 && zmq_errno() == EINTR) {
     }
     impl_->context = nullptr;
+    removeIpcFile(impl_->options);
   }
 }
 
 const std::string& Channel::endpoint() const { return impl_->options.endpoint; }
-bool Channel::peerSeen() const { return impl_->seen; }
-bool Channel::peerDisconnected() const { return impl_->disconnected; }
+bool Channel::peerSeen() {
+  drainMonitor();
+  return impl_->seen;
+}
+
+bool Channel::peerDisconnected() {
+  drainMonitor();
+  return impl_->disconnected;
+}
 
 void Channel::drainMonitor() {
   if (impl_->monitor == nullptr) return;
@@ -192,9 +240,9 @@ Status Channel::send(std::vector<std::uint8_t>&& bytes, double timeoutSeconds, T
   if (impl_->socket == nullptr) throw Error("bridge transport: send on a closed channel to " + impl_->options.endpoint);
   const auto start = Clock::now();
   const auto deadline = start + std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(timeoutSeconds));
-  auto* owned = new std::vector<std::uint8_t>(std::move(bytes));
+  auto* owned = new SentBuffer{std::move(bytes), impl_->pool};
   zmq_msg_t message;
-  if (zmq_msg_init_data(&message, owned->data(), owned->size(), freeVector, owned) != 0) {
+  if (zmq_msg_init_data(&message, owned->bytes.data(), owned->bytes.size(), releaseSentBuffer, owned) != 0) {
     delete owned;
     throw Error(zmqError("allocating a message for", impl_->options.endpoint));
   }
@@ -241,6 +289,7 @@ Status Channel::receive(Frame& frame, double timeoutSeconds, Timing& timing) {
     }
     timing.transferSeconds += secondsSince(attempt);
     timing.waitSeconds += std::chrono::duration<double>(attempt - start).count();
+    impl_->seen = true;  // a message proves the peer, even before the monitor event is read
     if (zmq_msg_more(&frame.impl_->message)) {
       // Drop the rest so the socket stays usable, then report: the protocol sends single-part messages.
       zmq_msg_t rest;

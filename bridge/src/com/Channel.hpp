@@ -58,13 +58,16 @@ public:
 
   /// Queues `bytes` (ownership moves to the transport, no copy). Waits at most `timeoutSeconds`.
   Status send(std::vector<std::uint8_t>&& bytes, double timeoutSeconds, Timing& timing);
+  /// An empty buffer that keeps the memory of a message already sent (or a new one): encoding into
+  /// it avoids fresh page faults for every large message.
+  std::vector<std::uint8_t> takeBuffer();
   /// Waits at most `timeoutSeconds` for one message. Messages already delivered are returned
   /// before a disconnection is reported, so a peer's last words (Finalize, Abort) are never lost.
   Status receive(Frame& frame, double timeoutSeconds, Timing& timing);
   /// True once a transport connection to a peer was established.
-  bool peerSeen() const;
+  bool peerSeen();
   /// True once that connection dropped.
-  bool peerDisconnected() const;
+  bool peerDisconnected();
   /// Closes the socket; waits at most the linger time for queued messages. Idempotent.
   void close();
   const std::string& endpoint() const;

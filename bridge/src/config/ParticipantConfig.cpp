@@ -1,6 +1,7 @@
 // Validation of ParticipantConfig: name, endpoint transport, timeout and heartbeat.
 #include "config/ParticipantConfig.hpp"
 #include "railcosim/Error.hpp"
+#include "railcosim/WindowInterpolation.hpp"
 
 #include <cmath>
 #include <sstream>
@@ -22,6 +23,13 @@ void validate(const ParticipantConfig& config, const char* role) {
     std::ostringstream message;
     message << who << ": timeoutSeconds = " << config.timeoutSeconds << "; it must be a positive number of seconds";
     throw Error(message.str());
+  }
+  if (!config.couplingScheme.empty()) {
+    try {
+      parseCouplingScheme(config.couplingScheme);
+    } catch (const Error& error) {
+      throw Error(who + ": couplingScheme: " + error.what());
+    }
   }
   if (!(config.heartbeatSeconds > 0.0) || !std::isfinite(config.heartbeatSeconds) || config.heartbeatSeconds > 3600.0) {
     std::ostringstream message;

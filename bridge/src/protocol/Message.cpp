@@ -16,10 +16,28 @@ constexpr bool hostIsLittleEndian =
     false;
 #endif
 
+/// Whether `count` little-endian binary64 values (possibly unaligned) are all finite. Only the high
+/// 32-bit word carries the exponent; testing it with 32-bit operations lets the loop vectorize with
+/// plain SSE2, so the check costs about as much as one copy of the data.
+bool allFinite(const std::uint8_t* bytes, std::size_t count) {
+  constexpr std::uint32_t exponentMask = 0x7ff00000u;  // all ones: NaN or infinity
+  std::uint32_t nonFinite = 0;
+  for (std::size_t i = 0; i < count; ++i) {
+    std::uint32_t high;
+    std::memcpy(&high, bytes + 8 * i + 4, 4);
+    nonFinite |= (high & exponentMask) == exponentMask ? 1u : 0u;
+  }
+  return nonFinite == 0;
+}
+
 /// Appends little-endian values to a byte buffer sized once up front.
 class Writer {
 public:
-  explicit Writer(std::size_t capacity) { bytes_.reserve(capacity); }
+  /// `reuse`: a buffer from an earlier message; its memory is kept, so large messages do not fault in new pages.
+  Writer(std::size_t capacity, std::vector<std::uint8_t>&& reuse) : bytes_(std::move(reuse)) {
+    bytes_.clear();
+    bytes_.reserve(capacity);
+  }
   void putU8(std::uint8_t value) { bytes_.push_back(value); }
   void putU16(std::uint16_t value) { putUnsigned(value, 2); }
   void putU32(std::uint32_t value) { putUnsigned(value, 4); }
@@ -33,12 +51,18 @@ public:
     const auto* begin = static_cast<const std::uint8_t*>(data);
     bytes_.insert(bytes_.end(), begin, begin + size);
   }
-  void putF64Array(const std::vector<double>& values) {
+  /// Appends the array; returns false if a value is NaN or infinite (checked right after the copy, while the data are in cache).
+  bool putF64Array(const std::vector<double>& values) {
     if (hostIsLittleEndian) {
       putBytes(values.data(), values.size() * sizeof(double));
-    } else {
-      for (double value : values) putF64(value);
+      return allFinite(reinterpret_cast<const std::uint8_t*>(values.data()), values.size());
     }
+    bool finite = true;
+    for (double value : values) {
+      finite = finite && std::isfinite(value);
+      putF64(value);
+    }
+    return finite;
   }
   void putI32Array(const std::vector<std::int32_t>& values) {
     if (hostIsLittleEndian) {
@@ -74,15 +98,29 @@ public:
     const std::size_t at = advance(size);
     return std::string(reinterpret_cast<const char*>(data_ + at), size);
   }
-  void f64Array(std::vector<double>& values, std::size_t count) {
-    values.resize(count);
+  /// Reads `count` reals; returns false if one is NaN or infinite (checked right after the copy, while the data are in cache).
+  bool f64Array(std::vector<double>& values, std::size_t count) {
     const std::size_t at = advance(count * sizeof(double));
     if (hostIsLittleEndian) {
-      if (count > 0) std::memcpy(values.data(), data_ + at, count * sizeof(double));
-    } else {
-      Reader sub(data_ + at, count * sizeof(double));
-      for (auto& value : values) value = sub.f64();
+      const std::uint8_t* source = data_ + at;
+      if (reinterpret_cast<std::uintptr_t>(source) % alignof(double) == 0) {
+        // The usual case (ZeroMQ buffers are malloc'ed, the header is 56 bytes): one copy, no zero-fill.
+        const auto* first = reinterpret_cast<const double*>(source);
+        values.assign(first, first + count);
+      } else {
+        values.resize(count);
+        if (count > 0) std::memcpy(values.data(), source, count * sizeof(double));
+      }
+      return allFinite(source, count);
     }
+    values.resize(count);
+    Reader sub(data_ + at, count * sizeof(double));
+    bool finite = true;
+    for (auto& value : values) {
+      value = sub.f64();
+      finite = finite && std::isfinite(value);
+    }
+    return finite;
   }
   void i32Array(std::vector<std::int32_t>& values, std::size_t count) {
     values.resize(count);
@@ -204,19 +242,28 @@ void requirePayload(const Header& header, std::uint64_t expected, const std::str
 
 void readKinematicsArrays(Reader& reader, const Header& header, NodalKinematics& kinematics) {
   const std::size_t values = static_cast<std::size_t>(3 * header.nodeCount);
-  reader.f64Array(kinematics.positions, values);
-  if (header.flags & flagVelocities) reader.f64Array(kinematics.velocities, values);
-  if (header.flags & flagAccelerations) reader.f64Array(kinematics.accelerations, values);
-  const std::string what = describe(header);
-  requireFinite(kinematics.positions, what, "positions");
-  requireFinite(kinematics.velocities, what, "velocities");
-  requireFinite(kinematics.accelerations, what, "accelerations");
+  bool finite = reader.f64Array(kinematics.positions, values);
+  if (header.flags & flagVelocities) finite = reader.f64Array(kinematics.velocities, values) && finite;
+  if (header.flags & flagAccelerations) finite = reader.f64Array(kinematics.accelerations, values) && finite;
+  if (!finite) {
+    // Slow path, only to name the first bad value.
+    const std::string what = describe(header);
+    requireFinite(kinematics.positions, what, "positions");
+    requireFinite(kinematics.velocities, what, "velocities");
+    requireFinite(kinematics.accelerations, what, "accelerations");
+  }
 }
 
-void writeKinematicsArrays(Writer& writer, const NodalKinematics& kinematics) {
-  writer.putF64Array(kinematics.positions);
-  if (!kinematics.velocities.empty()) writer.putF64Array(kinematics.velocities);
-  if (!kinematics.accelerations.empty()) writer.putF64Array(kinematics.accelerations);
+void writeKinematicsArrays(Writer& writer, const NodalKinematics& kinematics, const char* message) {
+  bool finite = writer.putF64Array(kinematics.positions);
+  if (!kinematics.velocities.empty()) finite = writer.putF64Array(kinematics.velocities) && finite;
+  if (!kinematics.accelerations.empty()) finite = writer.putF64Array(kinematics.accelerations) && finite;
+  if (!finite) {
+    const std::string what = std::string("cannot encode ") + message;
+    requireFinite(kinematics.positions, what, "positions");
+    requireFinite(kinematics.velocities, what, "velocities");
+    requireFinite(kinematics.accelerations, what, "accelerations");
+  }
 }
 
 std::string checkedText(const std::string& value, const char* field) {
@@ -259,24 +306,28 @@ std::string describe(const Header& header) {
   }
 }
 
-std::vector<std::uint8_t> encodeHello(const Hello& hello, std::uint16_t version) {
+std::vector<std::uint8_t> encodeHello(const Hello& hello, std::uint16_t version, std::vector<std::uint8_t> buffer) {
   const std::string name = checkedText(hello.participantName, "participantName");
   const std::string units = checkedText(hello.unitSystem, "unitSystem");
+  const std::string scheme = checkedText(hello.couplingScheme, "couplingScheme");
   Header header;
   header.version = version;
   header.type = MessageType::Hello;
-  header.payloadBytes = 1 + 2 + name.size() + 2 + units.size();
-  Writer writer(headerBytes + header.payloadBytes);
+  header.payloadBytes = 1 + 2 + name.size() + 2 + units.size() + 2 + scheme.size();
+  Writer writer(headerBytes + header.payloadBytes, std::move(buffer));
   writeHeader(writer, header);
   writer.putU8(static_cast<std::uint8_t>(hello.role));
   writer.putU16(static_cast<std::uint16_t>(name.size()));
   writer.putBytes(name.data(), name.size());
   writer.putU16(static_cast<std::uint16_t>(units.size()));
   writer.putBytes(units.data(), units.size());
+  writer.putU16(static_cast<std::uint16_t>(scheme.size()));
+  writer.putBytes(scheme.data(), scheme.size());
   return writer.take();
 }
 
-std::vector<std::uint8_t> encodeMesh(const InterfaceMesh& mesh, double femTimeStep, const NodalKinematics& initial) {
+std::vector<std::uint8_t> encodeMesh(const InterfaceMesh& mesh, double femTimeStep, const NodalKinematics& initial,
+                                     std::vector<std::uint8_t> buffer) {
   Header header;
   header.type = MessageType::InterfaceMesh;
   header.time = initial.time;
@@ -285,29 +336,32 @@ std::vector<std::uint8_t> encodeMesh(const InterfaceMesh& mesh, double femTimeSt
   header.triangleCount = mesh.triangleCount();
   header.payloadBytes = sizeof(double) + mesh.coordinates.size() * sizeof(double) +
                         mesh.triangles.size() * sizeof(std::int32_t) + kinematicsBytes(header.nodeCount, header.flags);
-  Writer writer(headerBytes + header.payloadBytes);
+  Writer writer(headerBytes + header.payloadBytes, std::move(buffer));
   writeHeader(writer, header);
   writer.putF64(femTimeStep);
-  writer.putF64Array(mesh.coordinates);
+  if (!writer.putF64Array(mesh.coordinates)) requireFinite(mesh.coordinates, "cannot encode InterfaceMesh", "coordinates");
   writer.putI32Array(mesh.triangles);
-  writeKinematicsArrays(writer, initial);
+  writeKinematicsArrays(writer, initial, "InterfaceMesh");
   return writer.take();
 }
 
-std::vector<std::uint8_t> encodeForces(const ForceMessage& message) {
+std::vector<std::uint8_t> encodeForces(const ForceMessage& message, std::vector<std::uint8_t> buffer) {
   Header header;
   header.type = MessageType::Forces;
   header.window = message.window;
   header.time = message.time;
   header.nodeCount = message.forces.size() / 3;
   header.payloadBytes = message.forces.size() * sizeof(double);
-  Writer writer(headerBytes + header.payloadBytes);
+  Writer writer(headerBytes + header.payloadBytes, std::move(buffer));
   writeHeader(writer, header);
-  writer.putF64Array(message.forces);
+  if (!writer.putF64Array(message.forces)) {
+    requireFinite(message.forces, "cannot encode Forces for window " + std::to_string(message.window), "forces");
+  }
   return writer.take();
 }
 
-std::vector<std::uint8_t> encodeKinematics(std::uint64_t window, const NodalKinematics& kinematics) {
+std::vector<std::uint8_t> encodeKinematics(std::uint64_t window, const NodalKinematics& kinematics,
+                                           std::vector<std::uint8_t> buffer) {
   Header header;
   header.type = MessageType::Kinematics;
   header.window = window;
@@ -315,29 +369,29 @@ std::vector<std::uint8_t> encodeKinematics(std::uint64_t window, const NodalKine
   header.flags = kinematicsFlags(kinematics);
   header.nodeCount = kinematics.positions.size() / 3;
   header.payloadBytes = kinematicsBytes(header.nodeCount, header.flags);
-  Writer writer(headerBytes + header.payloadBytes);
+  Writer writer(headerBytes + header.payloadBytes, std::move(buffer));
   writeHeader(writer, header);
-  writeKinematicsArrays(writer, kinematics);
+  writeKinematicsArrays(writer, kinematics, ("Kinematics for window " + std::to_string(window)).c_str());
   return writer.take();
 }
 
-std::vector<std::uint8_t> encodeFinalize(std::uint64_t window) {
+std::vector<std::uint8_t> encodeFinalize(std::uint64_t window, std::vector<std::uint8_t> buffer) {
   Header header;
   header.type = MessageType::Finalize;
   header.window = window;
-  Writer writer(headerBytes);
+  Writer writer(headerBytes, std::move(buffer));
   writeHeader(writer, header);
   return writer.take();
 }
 
-std::vector<std::uint8_t> encodeAbort(std::uint64_t window, const std::string& reason) {
+std::vector<std::uint8_t> encodeAbort(std::uint64_t window, const std::string& reason, std::vector<std::uint8_t> buffer) {
   // A reason longer than the limit is cut rather than refused: an abort must always go out.
   const std::string text = reason.substr(0, maxTextBytes);
   Header header;
   header.type = MessageType::Abort;
   header.window = window;
   header.payloadBytes = text.size();
-  Writer writer(headerBytes + text.size());
+  Writer writer(headerBytes + text.size(), std::move(buffer));
   writeHeader(writer, header);
   writer.putBytes(text.data(), text.size());
   return writer.take();
@@ -431,13 +485,21 @@ Hello decodeHello(const Header& header, const std::uint8_t* data) {
   const std::size_t unitSize = reader.u16();
   needBytes(unitSize, "unitSystem");
   hello.unitSystem = reader.text(unitSize);
+  needBytes(2, "couplingScheme length");
+  const std::size_t schemeSize = reader.u16();
+  needBytes(schemeSize, "couplingScheme");
+  hello.couplingScheme = reader.text(schemeSize);
   if (reader.remaining() != 0) {
-    text << "Hello is oversized: " << reader.remaining() << " bytes follow field 'unitSystem'";
+    text << "Hello is oversized: " << reader.remaining() << " bytes follow field 'couplingScheme'";
     throw ProtocolError(text.str());
   }
   if (hello.participantName.empty()) throw ProtocolError("Hello: field 'participantName' is empty");
   for (unsigned char c : hello.participantName) {
     if (c < 32 || c == 127) throw ProtocolError("Hello: field 'participantName' contains a control character");
+  }
+  if (!hello.couplingScheme.empty() && hello.couplingScheme != "justInTime" && hello.couplingScheme != "predictive") {
+    throw ProtocolError("Hello from '" + hello.participantName + "': field 'couplingScheme' is '" +
+                        hello.couplingScheme + "'; expected justInTime, predictive or empty");
   }
   if (hello.unitSystem != "SI") {
     throw ProtocolError("Hello from '" + hello.participantName + "': field 'unitSystem' is '" + hello.unitSystem +
@@ -469,8 +531,9 @@ MeshSetup decodeMesh(const Header& header, const std::uint8_t* data) {
     text << "InterfaceMesh: field 'femTimeStep' = " << setup.femTimeStep << " s; it must be positive and finite";
     throw ProtocolError(text.str());
   }
-  reader.f64Array(setup.mesh.coordinates, static_cast<std::size_t>(3 * header.nodeCount));
-  requireFinite(setup.mesh.coordinates, "InterfaceMesh", "coordinates");
+  if (!reader.f64Array(setup.mesh.coordinates, static_cast<std::size_t>(3 * header.nodeCount))) {
+    requireFinite(setup.mesh.coordinates, "InterfaceMesh", "coordinates");
+  }
   reader.i32Array(setup.mesh.triangles, static_cast<std::size_t>(3 * header.triangleCount));
   for (std::size_t i = 0; i < setup.mesh.triangles.size(); ++i) {
     const std::int32_t index = setup.mesh.triangles[i];
@@ -501,8 +564,9 @@ ForceMessage decodeForces(const Header& header, const std::uint8_t* data, std::s
   ForceMessage message;
   message.window = header.window;
   message.time = header.time;
-  reader.f64Array(message.forces, static_cast<std::size_t>(3 * header.nodeCount));
-  requireFinite(message.forces, describe(header), "forces");
+  if (!reader.f64Array(message.forces, static_cast<std::size_t>(3 * header.nodeCount))) {
+    requireFinite(message.forces, describe(header), "forces");
+  }
   return message;
 }
 

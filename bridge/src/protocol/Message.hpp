@@ -55,6 +55,7 @@ struct Hello {
   Role role = Role::Fem;
   std::string participantName;
   std::string unitSystem = "SI";
+  std::string couplingScheme;  // "" (not stated), "justInTime" or "predictive"
 };
 
 struct MeshSetup {
@@ -63,13 +64,19 @@ struct MeshSetup {
   NodalKinematics initial;
 };
 
-/// Encoders. `version` exists so tests can build a message of another protocol version.
-std::vector<std::uint8_t> encodeHello(const Hello& hello, std::uint16_t version = protocolVersion);
-std::vector<std::uint8_t> encodeMesh(const InterfaceMesh& mesh, double femTimeStep, const NodalKinematics& initial);
-std::vector<std::uint8_t> encodeForces(const ForceMessage& message);
-std::vector<std::uint8_t> encodeKinematics(std::uint64_t window, const NodalKinematics& kinematics);
-std::vector<std::uint8_t> encodeFinalize(std::uint64_t window);
-std::vector<std::uint8_t> encodeAbort(std::uint64_t window, const std::string& reason);
+/// Encoders. `version` exists so tests can build a message of another protocol version. `buffer`
+/// may pass the memory of an earlier message for reuse. Reals are checked as they are copied:
+/// a NaN or infinity throws ProtocolError naming the field and index, and nothing is sent.
+std::vector<std::uint8_t> encodeHello(const Hello& hello, std::uint16_t version = protocolVersion,
+                                      std::vector<std::uint8_t> buffer = {});
+std::vector<std::uint8_t> encodeMesh(const InterfaceMesh& mesh, double femTimeStep, const NodalKinematics& initial,
+                                     std::vector<std::uint8_t> buffer = {});
+std::vector<std::uint8_t> encodeForces(const ForceMessage& message, std::vector<std::uint8_t> buffer = {});
+std::vector<std::uint8_t> encodeKinematics(std::uint64_t window, const NodalKinematics& kinematics,
+                                           std::vector<std::uint8_t> buffer = {});
+std::vector<std::uint8_t> encodeFinalize(std::uint64_t window, std::vector<std::uint8_t> buffer = {});
+std::vector<std::uint8_t> encodeAbort(std::uint64_t window, const std::string& reason,
+                                      std::vector<std::uint8_t> buffer = {});
 
 /// Decoders: each throws ProtocolError naming the field that is wrong.
 /// decodeHeader checks magic, version, type, reserved fields and that the payload size matches

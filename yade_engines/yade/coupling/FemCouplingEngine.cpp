@@ -6,14 +6,19 @@
 #include "railcosim/Participant.hpp"
 #include "railcosim/WindowInterpolation.hpp"
 
+#include "kernels/HertzMindlin.hpp"
+#include "kernels/SurfaceContactMesh.hpp"
+
 #include <core/Interaction.hpp>
 #include <core/InteractionContainer.hpp>
 #include <core/Scene.hpp>
 #include <core/State.hpp>
-#include <pkg/common/Aabb.hpp>
+#include <core/Aabb.hpp>
 #include <pkg/common/Facet.hpp>
 #include <pkg/common/NormShearPhys.hpp>
-#include <pkg/dem/ScGeom.hpp>
+#include <pkg/common/Sphere.hpp>
+#include <pkg/dem/FrictPhys.hpp>
+#include <pkg/dem/DemXDofGeom.hpp>
 
 #include <chrono>
 #include <cmath>
@@ -38,6 +43,32 @@ namespace {
 	}
 }
 
+struct FemCouplingEngine::ContactHistory {
+	railcosim::kernels::SurfaceContact contact;      // where the contact was at the previous step
+	railcosim::kernels::Vec3           elasticForce; // tangential spring force carried to the next step [N]
+	double                             overlap;      // overlap at the previous step [m] (unloading correction)
+};
+
+namespace {
+	railcosim::kernels::Vec3 vec(const Vector3r& v) { return { v[0], v[1], v[2] }; }
+	Vector3r                 vec(const railcosim::kernels::Vec3& v) { return Vector3r(v.x, v.y, v.z); }
+	const FrictMat&          frictionMaterial(const shared_ptr<Material>& material, const std::string& owner)
+	{
+		const auto* frict = dynamic_cast<const FrictMat*>(material.get());
+		if (!frict)
+			throw std::invalid_argument(
+			        "FemCouplingEngine (contactModel='hierarchy'): " + owner + " needs a FrictMat (or derived) material for its moduli and friction.");
+		return *frict;
+	}
+}
+
+bool FemCouplingEngine::useHierarchy() const
+{
+	if (contactModel == "hierarchy") return true;
+	if (contactModel == "facets") return false;
+	throw std::invalid_argument("FemCouplingEngine: contactModel='" + contactModel + "' is not known; use 'facets' or 'hierarchy'.");
+}
+
 FemCouplingEngine::~FemCouplingEngine()
 {
 	try {
@@ -52,13 +83,17 @@ void FemCouplingEngine::connect()
 	if (connected) return;
 	if (endpoint.empty()) throw std::invalid_argument("FemCouplingEngine: 'endpoint' is empty; set it to the FEM participant's ZeroMQ endpoint.");
 	if (!material) throw std::invalid_argument("FemCouplingEngine: 'material' is not set; give the facets a material, e.g. material=O.materials[0].");
-	predictive = (railcosim::parseCouplingScheme(scheme) == railcosim::CouplingScheme::Predictive);
+	predictive            = (railcosim::parseCouplingScheme(scheme) == railcosim::CouplingScheme::Predictive);
+	const bool hierarchy  = useHierarchy();
+	if (hierarchy) frictionMaterial(material, "the surface 'material'");
+	if (!(restitution >= 0 && restitution <= 1)) throw std::invalid_argument("FemCouplingEngine: restitution must be in [0, 1], got " + std::to_string(restitution));
 
 	railcosim::ParticipantConfig config;
 	config.name             = participantName;
 	config.endpoint         = endpoint;
 	config.timeoutSeconds   = timeout;
 	config.heartbeatSeconds = heartbeat;
+	config.couplingScheme   = railcosim::toString(railcosim::parseCouplingScheme(scheme));
 	participant             = std::make_shared<railcosim::DemParticipant>(config);
 	const auto waitStart    = Clock::now();
 	railcosim::InterfaceSetup setup = participant->initialize();
@@ -80,7 +115,17 @@ void FemCouplingEngine::connect()
 		triangles.push_back(Vector3i(connectivity[3 * t], connectivity[3 * t + 1], connectivity[3 * t + 2]));
 
 	facetIds.clear();
-	for (size_t t = 0; t < triangles.size(); ++t) {
+	if (hierarchy) {
+		topology = std::make_shared<railcosim::kernels::SurfaceTopology>(connectivity, static_cast<int32_t>(setup.mesh.nodeCount()));
+		// Grid cells about one mean edge long: a sphere query then visits a handful of cells.
+		double edgeSum = 0;
+		for (const Vector3i& tri : triangles)
+			for (int k = 0; k < 3; ++k)
+				edgeSum += (node(setup.mesh.coordinates, tri[k]) - node(setup.mesh.coordinates, tri[(k + 1) % 3])).norm();
+		grid    = std::make_shared<railcosim::kernels::SurfaceTriangleGrid>(edgeSum / (3.0 * triangles.size()));
+		history = std::make_shared<std::map<Body::id_t, std::vector<ContactHistory>>>();
+	}
+	for (size_t t = 0; t < (hierarchy ? 0 : triangles.size()); ++t) {
 		auto facet = shared_ptr<Facet>(new Facet);
 		facet->color = Vector3r(0.6, 0.6, 0.7);
 		auto body    = shared_ptr<Body>(new Body);
@@ -151,28 +196,107 @@ void FemCouplingEngine::collectForces(std::vector<double>& nodal) const
 	for (size_t i = 0; i < nodePositions.size(); ++i)
 		for (int k = 0; k < 3; ++k)
 			positions[3 * i + k] = nodePositions[i][k];
-	// Map body id -> triangle index once per call; facet ids are few compared with interactions.
-	const Body::id_t firstId = facetIds.empty() ? 0 : *std::min_element(facetIds.begin(), facetIds.end());
-	const Body::id_t lastId  = facetIds.empty() ? -1 : *std::max_element(facetIds.begin(), facetIds.end());
-	std::vector<int> triangleOf(lastId - firstId + 1, -1);
-	for (size_t t = 0; t < facetIds.size(); ++t)
-		triangleOf[facetIds[t] - firstId] = static_cast<int>(t);
-	auto triangleIndex = [&](Body::id_t id) { return (id < firstId || id > lastId) ? -1 : triangleOf[id - firstId]; };
-
-	for (const auto& I : *scene->interactions) {
-		if (!I->isReal()) continue;
-		const int t1 = triangleIndex(I->getId1()), t2 = triangleIndex(I->getId2());
-		if (t1 < 0 && t2 < 0) continue;
-		const auto* geom = dynamic_cast<const GenericSpheresContact*>(I->geom.get());
-		const auto* phys = dynamic_cast<const NormShearPhys*>(I->phys.get());
-		if (!geom || !phys) continue;
-		// The law applies -(Fn+Fs) to body 1 and +(Fn+Fs) to body 2.
-		const Vector3r onSecond = phys->normalForce + phys->shearForce;
-		const Vector3r force    = (t1 >= 0) ? Vector3r(-onSecond) : onSecond;
-		const int      t        = (t1 >= 0) ? t1 : t2;
-		const Vector3r& cp      = geom->contactPoint;
-		railcosim::lumpPointForce(positions, connectivity, t, { cp[0], cp[1], cp[2] }, { force[0], force[1], force[2] }, nodal);
+	// Only the facets' own interaction maps are visited: the cost follows the contacts on the surface.
+	for (size_t t = 0; t < facetIds.size(); ++t) {
+		const Body::id_t id = facetIds[t];
+		const auto&      b  = (*scene->bodies)[id];
+		for (const auto& entry : b->intrs) {
+			const shared_ptr<Interaction>& I = entry.second;
+			if (!I->isReal()) continue;
+			const auto* geom = dynamic_cast<const GenericSpheresContact*>(I->geom.get());
+			const auto* phys = dynamic_cast<const NormShearPhys*>(I->phys.get());
+			if (!geom || !phys) continue;
+			// The law applies -(Fn+Fs) to body 1 and +(Fn+Fs) to body 2.
+			const Vector3r  onSecond = phys->normalForce + phys->shearForce;
+			const Vector3r  force    = (I->getId1() == id) ? Vector3r(-onSecond) : onSecond;
+			const Vector3r& cp       = geom->contactPoint;
+			railcosim::lumpPointForce(positions, connectivity, t, { cp[0], cp[1], cp[2] }, { force[0], force[1], force[2] }, nodal);
+		}
 	}
+}
+
+void FemCouplingEngine::accumulateStep()
+{
+	if (averageForces)
+		for (size_t k = 0; k < stepForces.size(); ++k)
+			forceSum[k] += stepForces[k];
+	if (auditEnergy) {
+		Real power = 0;
+		for (size_t i = 0; i < nodeVelocities.size(); ++i)
+			power += node(stepForces, i).dot(nodeVelocities[i]);
+		interfaceWorkDem += power * scene->dt;
+	}
+}
+
+void FemCouplingEngine::hierarchyContacts(std::vector<double>& nodal)
+{
+	namespace k = railcosim::kernels;
+	const size_t        nodes = nodePositions.size();
+	std::vector<double> positions(3 * nodes), velocities(3 * nodes);
+	for (size_t i = 0; i < nodes; ++i)
+		for (int c = 0; c < 3; ++c) {
+			positions[3 * i + c]  = nodePositions[i][c];
+			velocities[3 * i + c] = nodeVelocities[i][c];
+		}
+	nodal.assign(3 * nodes, 0.0);
+	const k::SurfaceMeshView view = topology->view(positions, velocities);
+	grid->rebuild(view);
+	const FrictMat& surface        = frictionMaterial(material, "the surface 'material'");
+	const double    surfaceShear   = k::shearModulus(surface.young, surface.poisson);
+	const double    dampingRatio   = k::dampingRatioFromRestitution(restitution);
+	const double    dt             = scene->dt;
+	auto            next           = std::make_shared<std::map<Body::id_t, std::vector<ContactHistory>>>();
+	std::vector<int32_t> candidates;
+	long                 count = 0;
+	for (const auto& b : *scene->bodies) {
+		if (!b || b->isClump()) continue;
+		const auto* sphere = dynamic_cast<const Sphere*>(b->shape.get());
+		if (!sphere) continue;
+		const State&   state  = *b->state;
+		const k::Vec3  centre = vec(state.pos);
+		const double   radius = sphere->radius;
+		grid->candidates(centre, radius, candidates);
+		if (candidates.empty()) continue;
+		const std::vector<k::SurfaceContact> contacts = k::findSurfaceContacts(view, centre, radius, candidates);
+		if (contacts.empty()) continue;
+
+		const FrictMat& particle = frictionMaterial(b->material, "particle #" + std::to_string(b->id));
+		// A clump member resists with the whole clump's inertia.
+		const double mass = b->isClumpMember() ? (*scene->bodies)[b->clumpId]->state->mass : state.mass;
+		const k::HertzMindlinParams params { k::effectiveYoungModulus(particle.young, particle.poisson, surface.young, surface.poisson),
+			                             k::effectiveShearModulus(
+			                                     k::shearModulus(particle.young, particle.poisson), particle.poisson, surfaceShear, surface.poisson),
+			                             radius, mass, dampingRatio };
+		const double friction = std::min(std::tan(particle.frictionAngle), std::tan(surface.frictionAngle));
+		const auto   found    = history->find(b->id);
+		std::vector<k::SurfaceContact> previousContacts;
+		if (found != history->end())
+			for (const ContactHistory& h : found->second)
+				previousContacts.push_back(h.contact);
+		std::vector<ContactHistory>& kept = (*next)[b->id];
+		for (const k::SurfaceContact& c : contacts) {
+			const k::Vec3 branch       = c.point - centre;
+			const k::Vec3 pointVel     = vec(state.vel) + cross(vec(state.angVel), branch);
+			const k::Vec3 relative     = pointVel - c.velocity; // particle relative to the surface at the contact
+			const double  overlapRate  = -dot(relative, c.normal);
+			const double  normalForce  = k::hertzNormalForce(params, c.overlap, overlapRate);
+			const int32_t continued    = previousContacts.empty()
+			           ? -1
+			           : k::findContinuingContact(c, previousContacts.data(), static_cast<int32_t>(previousContacts.size()), k::hertzContactRadius(params, c.overlap));
+			const k::Vec3 elastic      = continued >= 0 ? found->second[continued].elasticForce : k::Vec3 { 0, 0, 0 };
+			const double  lastOverlap  = continued >= 0 ? found->second[continued].overlap : c.overlap;
+			const k::TangentialForceResult tangential
+			        = k::mindlinTangentialForce(params, elastic, c.normal, c.overlap, lastOverlap, relative * dt, relative, friction, normalForce);
+			const k::Vec3 force = normalForce * c.normal + tangential.force; // on the particle
+			scene->forces.addForce(b->id, vec(force));
+			scene->forces.addTorque(b->id, vec(cross(branch, force)));
+			k::lumpContactForce(c, -1.0 * force, nodal.data());
+			kept.push_back({ c, tangential.elasticForce, c.overlap });
+			++count;
+		}
+	}
+	history         = next;
+	surfaceContacts = count;
 }
 
 void FemCouplingEngine::exchange()
@@ -184,6 +308,8 @@ void FemCouplingEngine::exchange()
 		message.forces = forceSum;
 		for (double& f : message.forces)
 			f /= stepsInWindow;
+	} else if (auditEnergy || useHierarchy()) {
+		message.forces = stepForces; // already gathered for this step
 	} else {
 		collectForces(message.forces);
 	}
@@ -197,6 +323,13 @@ void FemCouplingEngine::exchange()
 	participant->sendForces(message);
 	railcosim::NodalKinematics received = participant->receiveKinematics(predictive ? window + 1 : window);
 	waitTime += participant->statistics().waitSeconds - before;
+	if (auditEnergy) {
+		// The FEM applies the sent forces over the step that produced `received`; its displacement over
+		// that step starts from the previous FEM state (JIT: window start; predictive: last received).
+		const std::vector<double>& from = predictive ? lastReceived->positions : windowStart->positions;
+		for (size_t k = 0; k < message.forces.size(); ++k)
+			interfaceWorkFem += message.forces[k] * (received.positions[k] - from[k]);
+	}
 	if (predictive) {
 		windowStart  = std::make_shared<railcosim::NodalKinematics>(railcosim::predictiveStart(*lastReceived, received, femDt));
 		lastReceived = std::make_shared<railcosim::NodalKinematics>(std::move(received));
@@ -216,12 +349,9 @@ void FemCouplingEngine::action()
 		const auto start = Clock::now();
 		const double waitBefore = waitTime;
 		// Forces of this step's contact evaluation belong to the configuration at t_i + stepsInWindow*dt.
-		if (stepsInWindow > 0 && averageForces) {
-			std::vector<double> nodal;
-			collectForces(nodal);
-			for (size_t k = 0; k < nodal.size(); ++k)
-				forceSum[k] += nodal[k];
-		}
+		if (useHierarchy()) hierarchyContacts(stepForces);
+		else if (stepsInWindow > 0 && (averageForces || auditEnergy)) collectForces(stepForces);
+		if (stepsInWindow > 0 && (averageForces || auditEnergy)) accumulateStep();
 		if (stepsInWindow == subcycles) {
 			exchange();
 			stepsInWindow = 0;

@@ -5,6 +5,7 @@
 #include <core/GlobalEngine.hpp>
 #include <core/Material.hpp>
 
+#include <map>
 #include <memory>
 #include <string>
 #include <vector>
@@ -12,6 +13,11 @@
 namespace railcosim {
 class DemParticipant;
 struct NodalKinematics;
+namespace kernels {
+	class SurfaceTopology;
+	class SurfaceTriangleGrid;
+	struct SurfaceContact;
+}
 }
 
 namespace yade {
@@ -39,6 +45,9 @@ public:
 		((string, endpoint, "", , "ZeroMQ endpoint of the FEM participant, e.g. ``ipc:///tmp/railcosim.sock`` or ``tcp://127.0.0.1:5555``."))
 		((string, participantName, "dem", , "Name of this participant, shown in every message of the peer."))
 		((string, scheme, "justInTime", , "Coupling scheme: ``justInTime`` or ``predictive``."))
+		((string, contactModel, "facets", , "How particles touch the surface. ``facets``: one :yref:`Facet` body per triangle, contacts handled by the scene's own :yref:`InteractionLoop` functors (a sphere over an edge between two triangles gets a contact from each). ``hierarchy``: the engine itself finds sphere-surface contacts with the facet > edge > vertex hierarchy (one contact per touching surface patch, shadowed contacts removed), contact-point velocity interpolated from the nodal velocities, Hertz-Mindlin force from the shared kernels (:yref:`FemCouplingEngine.restitution`, friction and moduli from the particle and surface materials); no facet bodies are inserted."))
+		((Real, restitution, 0.5, , "``hierarchy`` model: coefficient of restitution of particle-surface impacts [-], turned into a Hertzian damping ratio."))
+		((long, surfaceContacts, 0, Attr::readonly, "``hierarchy`` model: number of particle-surface contacts at the last step."))
 		((Real, timeout, 60, , "Longest wait for any message of the FEM participant [s] before giving up with an error."))
 		((Real, heartbeat, 1, , "Transport heartbeat interval [s]; a dead or frozen peer is detected within about three intervals."))
 		((int, subcycles, 0, , "DEM steps per coupling window. 0 (default): the smallest count for which femTimeStep/subcycles does not exceed the current :yref:`Omega.dt`. Omega.dt is set to femTimeStep/subcycles at connection."))
@@ -54,6 +63,9 @@ public:
 		((Vector3r, totalForce, Vector3r::Zero(), Attr::readonly, "Sum of :yref:`FemCouplingEngine.nodalForces` [N]."))
 		((vector<Vector3i>, triangles, , Attr::readonly, "Interface triangles as node indices."))
 		((long, exchanges, 0, Attr::readonly, "Number of completed windows (force/kinematics exchanges)."))
+		((bool, auditEnergy, true, , "Accumulate the work of the interface forces as seen by each side (:yref:`FemCouplingEngine.interfaceWorkDem`, :yref:`FemCouplingEngine.interfaceWorkFem`)."))
+		((Real, interfaceWorkDem, 0, Attr::readonly, "Work done by the particles on the structure, integrated on the DEM side over every DEM step: sum of nodal force . nodal velocity * dt [J]."))
+		((Real, interfaceWorkFem, 0, Attr::readonly, "Work of the forces the FEM received, along the FEM's nodal displacements over each window: sum of F_sent . (P_end - P_start) [J]."))
 		((Real, bridgeTime, 0, Attr::readonly, "Time spent inside the bridge (encoding, transfer, force lumping) [s], excluding waits for the FEM solver."))
 		((Real, waitTime, 0, Attr::readonly, "Time spent waiting for the FEM solver [s]."))
 		((bool, connected, false, Attr::readonly, "Whether the handshake with the FEM participant is done."))
@@ -68,6 +80,9 @@ public:
 private:
 	void               placeSurface(Real tau, bool beforeIntegrator);
 	void               collectForces(std::vector<double>& nodal) const;
+	void               accumulateStep();
+	void               hierarchyContacts(std::vector<double>& nodal);
+	bool               useHierarchy() const;
 	void               exchange();
 	void               startWindow(const railcosim::NodalKinematics& start);
 
@@ -76,7 +91,13 @@ private:
 	std::shared_ptr<railcosim::NodalKinematics>  lastReceived; // predictive: FEM state at the window end
 	std::vector<int32_t>                         connectivity;
 	std::vector<double>                          forceSum;     // for averageForces
+	std::vector<double>                          stepForces;   // nodal forces of the current DEM step
 	long                                         stepsInWindow = 0;
+	// hierarchy model: surface topology, triangle grid, and per-particle contact history
+	struct ContactHistory;
+	std::shared_ptr<railcosim::kernels::SurfaceTopology>     topology;
+	std::shared_ptr<railcosim::kernels::SurfaceTriangleGrid> grid;
+	std::shared_ptr<std::map<Body::id_t, std::vector<ContactHistory>>> history;
 	bool                                         predictive    = false;
 };
 REGISTER_SERIALIZABLE(FemCouplingEngine);

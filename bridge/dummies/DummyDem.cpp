@@ -1,0 +1,130 @@
+// Stand-in DEM participant: the weight of a block spread over the surface nodes; checks the FEM's answer.
+#include "DummyCommon.hpp"
+
+#include "railcosim/Error.hpp"
+#include "railcosim/Participant.hpp"
+#include "railcosim/WindowInterpolation.hpp"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <thread>
+
+using namespace railcosim;
+
+namespace {
+
+const char* usage =
+    "railcosim_dummy_dem: stand-in DEM participant (connects to the endpoint).\n"
+    "  --endpoint E     ZeroMQ endpoint (ipc:///path or tcp://127.0.0.1:PORT)\n"
+    "  --name N         participant name (dem)\n"
+    "  --windows W      number of coupling windows (100)\n"
+    "  --timeout S      longest wait for the FEM side [s] (60)\n"
+    "  --heartbeat S    transport heartbeat [s] (1)\n"
+    "  --load F         total vertical force of the block on the surface [N] (-1000, i.e. downwards)\n"
+    "  --scheme X       justInTime | predictive (justInTime); must match the FEM side\n"
+    "  --mass M --stiffness K   spring-mass per FEM node, for the check (1 kg, 1e6 N/m)\n"
+    "  --no-check       do not compare the kinematics with the closed form\n"
+    "  --compute-ms T   pretend to compute T ms per window (0)\n"
+    "Exit status: 0 success, 2 peer lost, 3 protocol error, 1 other error or failed check.";
+
+} // namespace
+
+int main(int argc, char** argv) {
+  try {
+    const dummy::Options options(argc, argv,
+                                 {{"endpoint", "ipc:///tmp/railcosim-dummy.sock"}, {"name", "dem"}, {"windows", "100"},
+                                  {"timeout", "60"}, {"heartbeat", "1"}, {"load", "-1000"}, {"scheme", "justInTime"},
+                                  {"mass", "1"}, {"stiffness", "1e6"}, {"no-check", "false"}, {"compute-ms", "0"}},
+                                 usage);
+    const CouplingScheme scheme = parseCouplingScheme(options.text("scheme"));
+    const long windows = options.integer("windows");
+    const bool check = !options.flag("no-check");
+    const auto computeTime = std::chrono::microseconds(static_cast<long>(options.number("compute-ms") * 1000.0));
+    dummy::SpringMass model;
+    model.mass = options.number("mass");
+    model.stiffness = options.number("stiffness");
+
+    ParticipantConfig config;
+    config.name = options.text("name");
+    config.endpoint = options.text("endpoint");
+    config.timeoutSeconds = options.number("timeout");
+    config.heartbeatSeconds = options.number("heartbeat");
+    config.couplingScheme = toString(scheme);
+    DemParticipant participant(config);
+    const InterfaceSetup setup = participant.initialize();
+    const std::size_t nodes = setup.mesh.nodeCount();
+    const double dt = setup.femTimeStep;
+    const double nodalForce = options.number("load") / static_cast<double>(nodes);
+
+    ForceMessage message;
+    message.forces.assign(3 * nodes, 0.0);
+    for (std::size_t n = 0; n < nodes; ++n) message.forces[3 * n + 2] = nodalForce;
+
+    // Oracle: each node's spring-mass starts from rest when the load starts acting, at t = 0 for
+    // just-in-time and at t = dt for predictive (the FEM's first step there uses no DEM force yet).
+    const double loadStart = scheme == CouplingScheme::JustInTime ? 0.0 : dt;
+    const double w = model.omega();
+    const double staticDisplacement = nodalForce / model.stiffness;
+    double maxError[3] = {0.0, 0.0, 0.0};  // relative to the amplitudes F/k, w F/k, F/m
+    auto checkKinematics = [&](const NodalKinematics& kinematics) {
+      const double s = kinematics.time - loadStart;
+      const double expected[3] = {staticDisplacement * (1.0 - std::cos(w * s)), staticDisplacement * w * std::sin(w * s),
+                                  s > 0.0 ? nodalForce / model.mass * std::cos(w * s) : 0.0};
+      const double scale[3] = {std::abs(staticDisplacement), std::abs(staticDisplacement * w),
+                               std::abs(nodalForce / model.mass)};
+      for (std::size_t n = 0; n < nodes; ++n) {
+        const double got[3] = {kinematics.positions[3 * n + 2] - setup.mesh.coordinates[3 * n + 2],
+                               kinematics.velocities.empty() ? 0.0 : kinematics.velocities[3 * n + 2],
+                               kinematics.accelerations.empty() ? 0.0 : kinematics.accelerations[3 * n + 2]};
+        for (int q = 0; q < 3; ++q) maxError[q] = std::max(maxError[q], std::abs(got[q] - expected[q]) / scale[q]);
+      }
+    };
+
+    NodalKinematics latest = setup.initial;
+    for (long window = 0; window < windows; ++window) {
+      message.window = static_cast<std::uint64_t>(window);
+      message.time = static_cast<double>(window + 1) * dt;
+      if (scheme == CouplingScheme::JustInTime) {
+        if (computeTime.count() > 0) std::this_thread::sleep_for(computeTime);
+        participant.sendForces(message);
+        latest = participant.receiveKinematics(message.window);
+      } else {
+        const NodalKinematics atEnd = participant.receiveKinematics(message.window);
+        // The surface the DEM would move inside this window: linear from P(t_i) to P(t_i+1).
+        const NodalKinematics start = predictiveStart(latest, atEnd, dt);
+        (void)start;
+        latest = atEnd;
+        if (computeTime.count() > 0) std::this_thread::sleep_for(computeTime);
+        participant.sendForces(message);
+      }
+      if (check) checkKinematics(latest);
+    }
+    participant.finalize();
+
+    // Exact propagation per window: only round-off accumulates (~1e-16 per window, a few thousand
+    // windows), so 1e-9 of the amplitude separates a correct exchange from any real error.
+    const double tolerance = 1e-9;
+    const bool passed = !check || (maxError[0] <= tolerance && maxError[1] <= tolerance && maxError[2] <= tolerance);
+    const BridgeStatistics& statistics = participant.statistics();
+    const double perExchange = statistics.exchanges > 0 ? 1e6 / static_cast<double>(statistics.exchanges) : 0.0;
+    std::printf("railcosim_dummy_dem: %s %ld windows, %llu exchanges, %zu nodes, %s, bridge %.1f us/exchange "
+                "(encode %.1f + transfer %.1f), wait %.1f us/exchange, max relative error u %.2e v %.2e a %.2e%s\n",
+                passed ? "OK" : "FAILED", windows, static_cast<unsigned long long>(statistics.exchanges), nodes,
+                toString(scheme).c_str(), statistics.bridgeSeconds() * perExchange,
+                statistics.encodeSeconds * perExchange, statistics.transferSeconds * perExchange,
+                statistics.waitSeconds * perExchange, maxError[0], maxError[1], maxError[2],
+                check ? "" : " (not checked)");
+    return passed ? 0 : 1;
+  } catch (const PeerLostError& error) {
+    std::fprintf(stderr, "railcosim_dummy_dem: PEER LOST: %s\n", error.what());
+    return 2;
+  } catch (const ProtocolError& error) {
+    std::fprintf(stderr, "railcosim_dummy_dem: PROTOCOL ERROR: %s\n", error.what());
+    return 3;
+  } catch (const std::exception& error) {
+    std::fprintf(stderr, "railcosim_dummy_dem: ERROR: %s\n", error.what());
+    return 1;
+  }
+}

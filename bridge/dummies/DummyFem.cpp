@@ -1,0 +1,123 @@
+// Stand-in FEM participant: a flat nx x ny surface whose nodes are vertical spring-masses driven by the DEM forces.
+#include "DummyCommon.hpp"
+
+#include "railcosim/Error.hpp"
+#include "railcosim/Participant.hpp"
+#include "railcosim/WindowInterpolation.hpp"
+
+#include <chrono>
+#include <cstdio>
+#include <iostream>
+#include <thread>
+
+using namespace railcosim;
+
+namespace {
+
+const char* usage =
+    "railcosim_dummy_fem: stand-in FEM participant (binds the endpoint).\n"
+    "  --endpoint E     ZeroMQ endpoint (ipc:///path or tcp://127.0.0.1:PORT)\n"
+    "  --name N         participant name (fem)\n"
+    "  --windows W      finalize after W windows (0: run until the DEM side finalizes)\n"
+    "  --timeout S      longest wait for the DEM side [s] (60)\n"
+    "  --heartbeat S    transport heartbeat [s] (1)\n"
+    "  --nodes N        interface size, about N nodes on a square grid (100); or --nx/--ny\n"
+    "  --spacing H      node spacing [m] (0.1)\n"
+    "  --dt S           coupling window = FEM step [s] (1e-4)\n"
+    "  --scheme X       justInTime | predictive (justInTime)\n"
+    "  --mass M         mass per node [kg] (1);  --stiffness K  spring per node [N/m] (1e6)\n"
+    "  --compute-ms T   pretend to compute T ms per window (0)\n"
+    "Exit status: 0 success, 2 peer lost, 3 protocol error, 1 other error.";
+
+} // namespace
+
+int main(int argc, char** argv) {
+  try {
+    const dummy::Options options(argc, argv,
+                                 {{"endpoint", "ipc:///tmp/railcosim-dummy.sock"}, {"name", "fem"}, {"windows", "0"},
+                                  {"timeout", "60"}, {"heartbeat", "1"}, {"nodes", "100"}, {"nx", "0"}, {"ny", "0"},
+                                  {"spacing", "0.1"}, {"dt", "1e-4"}, {"scheme", "justInTime"}, {"mass", "1"},
+                                  {"stiffness", "1e6"}, {"compute-ms", "0"}},
+                                 usage);
+    const CouplingScheme scheme = parseCouplingScheme(options.text("scheme"));
+    const long side = dummy::sideForNodes(options.integer("nodes"));
+    const long nx = options.integer("nx") > 0 ? options.integer("nx") : side;
+    const long ny = options.integer("ny") > 0 ? options.integer("ny") : side;
+    const double dt = options.number("dt");
+    const long maxWindows = options.integer("windows");
+    const auto computeTime = std::chrono::microseconds(static_cast<long>(options.number("compute-ms") * 1000.0));
+    dummy::SpringMass model;
+    model.mass = options.number("mass");
+    model.stiffness = options.number("stiffness");
+
+    const InterfaceMesh mesh = dummy::rectangularSurface(nx, ny, options.number("spacing"));
+    const std::size_t nodes = mesh.nodeCount();
+    std::vector<double> displacement(nodes, 0.0), velocity(nodes, 0.0), appliedForce(nodes, 0.0);
+    NodalKinematics state;
+    state.positions = mesh.coordinates;
+    state.velocities.assign(3 * nodes, 0.0);
+    state.accelerations.assign(3 * nodes, 0.0);
+
+    ParticipantConfig config;
+    config.name = options.text("name");
+    config.endpoint = options.text("endpoint");
+    config.timeoutSeconds = options.number("timeout");
+    config.heartbeatSeconds = options.number("heartbeat");
+    config.couplingScheme = toString(scheme);
+    FemParticipant participant(config);
+    participant.initialize(mesh, dt, state);
+
+    // One FEM step t_i -> t_i+1 with the vertical nodal forces in appliedForce.
+    auto step = [&](std::uint64_t window) {
+      if (computeTime.count() > 0) std::this_thread::sleep_for(computeTime);
+      for (std::size_t n = 0; n < nodes; ++n) {
+        const double acceleration = model.advance(displacement[n], velocity[n], appliedForce[n], dt);
+        state.positions[3 * n + 2] = mesh.coordinates[3 * n + 2] + displacement[n];
+        state.velocities[3 * n + 2] = velocity[n];
+        state.accelerations[3 * n + 2] = acceleration;
+      }
+      state.time = static_cast<double>(window + 1) * dt;
+    };
+    auto takeForces = [&](const ForceMessage& message) {
+      for (std::size_t n = 0; n < nodes; ++n) appliedForce[n] = message.forces[3 * n + 2];
+    };
+
+    std::uint64_t window = 0;
+    while (maxWindows <= 0 || window < static_cast<std::uint64_t>(maxWindows)) {
+      if (scheme == CouplingScheme::JustInTime) {
+        const auto forces = participant.receiveForces();
+        if (!forces) break;
+        takeForces(*forces);
+        step(window);
+        participant.sendKinematics(window, state);
+      } else {
+        // Predictive: step with the forces of the previous window, then read this window's forces.
+        step(window);
+        participant.sendKinematics(window, state);
+        const auto forces = participant.receiveForces();
+        if (!forces) break;
+        takeForces(*forces);
+      }
+      ++window;
+    }
+    participant.finalize();
+    const BridgeStatistics& statistics = participant.statistics();
+    const double perExchange = statistics.exchanges > 0 ? 1e6 / static_cast<double>(statistics.exchanges) : 0.0;
+    std::printf("railcosim_dummy_fem: OK %llu windows, %llu exchanges, %zu nodes, %s, bridge %.1f us/exchange "
+                "(encode %.1f + transfer %.1f), wait %.1f us/exchange\n",
+                static_cast<unsigned long long>(window), static_cast<unsigned long long>(statistics.exchanges), nodes,
+                toString(scheme).c_str(), statistics.bridgeSeconds() * perExchange,
+                statistics.encodeSeconds * perExchange, statistics.transferSeconds * perExchange,
+                statistics.waitSeconds * perExchange);
+    return 0;
+  } catch (const PeerLostError& error) {
+    std::fprintf(stderr, "railcosim_dummy_fem: PEER LOST: %s\n", error.what());
+    return 2;
+  } catch (const ProtocolError& error) {
+    std::fprintf(stderr, "railcosim_dummy_fem: PROTOCOL ERROR: %s\n", error.what());
+    return 3;
+  } catch (const std::exception& error) {
+    std::fprintf(stderr, "railcosim_dummy_fem: ERROR: %s\n", error.what());
+    return 1;
+  }
+}

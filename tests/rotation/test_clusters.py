@@ -1,0 +1,191 @@
+"""Sphere-cluster construction, union mass properties, enclosing sphere, shape library and EN 13450 sampler checks."""
+import math
+import os
+import sys
+import unittest
+
+import numpy as np
+from numpy.polynomial import Polynomial
+
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "..", "yade_engines", "clusters"))
+import ballast_clusters as bc  # noqa: E402
+
+# Column integration at 400 columns: the single-sphere error measured 1e-5 (volume) and 2e-5 (inertia),
+# converging ~h^2.5 (1.6e-4 at 100, 2.4e-5 at 200). 1e-4 is the accuracy the module states.
+UNION_TOLERANCE = 1e-4
+
+
+def rotation_about(axis, angle):
+    axis = np.asarray(axis, float) / np.linalg.norm(axis)
+    k = np.array([[0, -axis[2], axis[1]], [axis[2], 0, -axis[0]], [-axis[1], axis[0], 0]])
+    return np.eye(3) + math.sin(angle) * k + (1 - math.cos(angle)) * k @ k
+
+
+def two_sphere_closed_form(radius, distance):
+    """Union of two equal spheres with centres at z = +-d/2: volume and (axial, transverse) inertia.
+
+    Each half is a sphere cut by the plane z = 0; with u the coordinate from its own centre, u in [-d/2, R],
+    the cross-section is a disc of radius^2 = R^2 - u^2. Polynomials are integrated exactly.
+    """
+    u = Polynomial([0.0, 1.0])
+    disc = radius ** 2 - u ** 2
+    a, b = -0.5 * distance, radius
+
+    def integral(p):
+        q = p.integ()
+        return q(b) - q(a)
+
+    volume = 2 * math.pi * integral(disc)
+    axial = 2 * math.pi / 2 * integral(disc ** 2)
+    transverse = 2 * math.pi * integral(disc * (disc / 4 + (u + 0.5 * distance) ** 2))
+    return volume, axial, transverse
+
+
+class SphereUnionMassProperties(unittest.TestCase):
+    def test_single_sphere_matches_closed_form(self):
+        radius, density, centre = 0.7, 2700.0, np.array([0.3, -0.2, 0.1])
+        p = bc.sphereUnionMassProperties([[*centre, radius]], density)
+        mass = density * 4.0 / 3.0 * math.pi * radius ** 3
+        self.assertLess(abs(p["mass"] / mass - 1), UNION_TOLERANCE)
+        self.assertLess(np.linalg.norm(p["centroid"] - centre), UNION_TOLERANCE * radius)
+        expected = 0.4 * mass * radius ** 2
+        self.assertLess(np.max(np.abs(np.linalg.eigvalsh(p["inertia"]) / expected - 1)), 3 * UNION_TOLERANCE)
+
+    def test_overlapping_pair_counts_the_overlap_once(self):
+        radius, distance = 1.0, 1.2
+        volume, axial, transverse = two_sphere_closed_form(radius, distance)
+        # Sanity of the oracle itself: volume = two spheres minus the lens (two caps of height R - d/2).
+        h = radius - distance / 2
+        lens = 2 * math.pi * h ** 2 * (3 * radius - h) / 3
+        self.assertAlmostEqual(volume, 2 * 4 / 3 * math.pi - lens, places=12)
+        rotation = rotation_about([1.0, 2.0, -0.5], 0.8)
+        axis = rotation @ np.array([0.0, 0.0, 1.0])
+        offset = np.array([0.2, 0.1, -0.3])
+        spheres = [[*(offset + 0.5 * distance * axis), radius], [*(offset - 0.5 * distance * axis), radius]]
+        p = bc.sphereUnionMassProperties(spheres)
+        self.assertLess(abs(p["volume"] / volume - 1), UNION_TOLERANCE)
+        self.assertLess(np.linalg.norm(p["centroid"] - offset), UNION_TOLERANCE)
+        moments, axes = bc.principalFrame(p["inertia"])
+        self.assertLess(abs(moments[0] / axial - 1), 3 * UNION_TOLERANCE)
+        self.assertLess(np.max(np.abs(moments[1:] / transverse - 1)), 3 * UNION_TOLERANCE)
+        # The long (minimum-inertia) principal axis is the line of centres.
+        self.assertGreater(abs(axes[:, 0] @ axis), 1 - 1e-6)
+
+    def test_disjoint_pair_matches_parallel_axis_sum(self):
+        radius, distance = 0.5, 3.0
+        p = bc.sphereUnionMassProperties([[0, 0, -distance / 2, radius], [0, 0, distance / 2, radius]])
+        sphere_volume = 4 / 3 * math.pi * radius ** 3
+        transverse = 2 * (0.4 * sphere_volume * radius ** 2 + sphere_volume * (distance / 2) ** 2)
+        self.assertLess(abs(p["volume"] / (2 * sphere_volume) - 1), UNION_TOLERANCE)
+        self.assertLess(abs(p["inertia"][0, 0] / transverse - 1), 3 * UNION_TOLERANCE)
+
+
+class PolyhedronAndEnclosingSphere(unittest.TestCase):
+    def test_box_mass_properties_are_exact(self):
+        corners = np.array([[x, y, z] for x in (0, 2) for y in (0, 1) for z in (0, 3)], float)
+        stone = bc.ConvexStone(corners)
+        self.assertAlmostEqual(stone.volume, 6.0, places=12)
+        np.testing.assert_allclose(stone.centroid, [1.0, 0.5, 1.5], atol=1e-12)
+        np.testing.assert_allclose(np.diag(stone.inertia), [6 * 10 / 12, 6 * 13 / 12, 6 * 5 / 12], rtol=1e-12)
+        # The square aperture of a 2x1x3 box travelling along its 3-long axis is its larger other side: 2.
+        self.assertAlmostEqual(bc.sieveSize(stone), 2.0, places=6)
+
+    def test_enclosing_sphere_is_exact_for_two_and_encloses_many(self):
+        centre, radius = bc.enclosingSphere([[0, 0, 0, 1.0], [4, 0, 0, 0.5]])
+        np.testing.assert_allclose(centre, [1.75, 0, 0], atol=1e-12)
+        self.assertAlmostEqual(radius, 2.75, places=12)
+        rng = np.random.default_rng(3)
+        for _ in range(50):
+            spheres = np.column_stack([rng.normal(size=(12, 3)), rng.uniform(0.1, 0.8, size=12)])
+            centre, radius = bc.enclosingSphere(spheres)
+            reach = np.linalg.norm(spheres[:, :3] - centre, axis=1) + spheres[:, 3]
+            self.assertTrue(np.all(reach <= radius * (1 + 1e-12)))
+            # A valid bound cannot be smaller than half the largest outer span.
+            spans = np.linalg.norm(spheres[:, None, :3] - spheres[None, :, :3], axis=2) + \
+                spheres[:, None, 3] + spheres[None, :, 3]
+            self.assertGreaterEqual(radius, 0.5 * spans.max() - 1e-12)
+
+
+class ClusterConstruction(unittest.TestCase):
+    def test_cluster_is_in_principal_axes_and_fills_the_stone(self):
+        stone = bc.randomConvexStone(7, (1.0, 0.75, 0.6), 16, 0.12)
+        cluster = bc.buildCluster(stone, 10, density=2.0)
+        self.assertEqual(len(cluster["spheres"]), 10)
+        check = bc.sphereUnionMassProperties(cluster["spheres"], 2.0)
+        scale = cluster["enclosingRadius"]
+        # Re-integrated in the cluster frame: centre of mass at the origin, inertia diagonal, to the
+        # integration accuracy (relative 1e-4 of the size / of the largest moment).
+        self.assertLess(np.linalg.norm(check["centroid"]), UNION_TOLERANCE * scale)
+        off_diagonal = check["inertia"] - np.diag(np.diag(check["inertia"]))
+        self.assertLess(np.max(np.abs(off_diagonal)), UNION_TOLERANCE * cluster["principalInertia"].max())
+        np.testing.assert_allclose(np.diag(check["inertia"]), cluster["principalInertia"], rtol=3 * UNION_TOLERANCE)
+        self.assertAlmostEqual(check["mass"], cluster["mass"], delta=UNION_TOLERANCE * cluster["mass"])
+        # Stated construction accuracy (library: |volume error| <= 17 %, symmetric difference <= 30 % at the
+        # coarse level); a broken cover or inflation would miss by far more.
+        self.assertLess(abs(cluster["volumeError"]), 0.2)
+        self.assertLess(cluster["symmetricDifference"], 0.35)
+        self.assertLess(cluster["integrationAccuracy"], 1e-3)
+        reach = np.linalg.norm(cluster["spheres"][:, :3] - cluster["enclosingCentre"], axis=1) + \
+            cluster["spheres"][:, 3]
+        self.assertTrue(np.all(reach <= cluster["enclosingRadius"] * (1 + 1e-12)))
+
+
+class ShapeLibrary(unittest.TestCase):
+    @classmethod
+    def setUpClass(cls):
+        cls.library = bc.loadShapeLibrary()
+
+    def test_library_has_six_or_more_closed_stones_with_both_levels(self):
+        shapes = self.library["shapes"]
+        self.assertGreaterEqual(len(shapes), 6)
+        for shape in shapes:
+            triangles = shape["triangles"]
+            edges = {}
+            for t in triangles:
+                for a, b in ((t[0], t[1]), (t[1], t[2]), (t[2], t[0])):
+                    edges[(a, b)] = edges.get((a, b), 0) + 1
+            # Closed, consistently oriented: every directed edge once, and its reverse once.
+            self.assertTrue(all(count == 1 and edges.get((b, a)) == 1 for (a, b), count in edges.items()))
+            self.assertEqual(len(shape["vertices"]) - len(edges) // 2 + len(triangles), 2)  # Euler, genus 0
+            stone = bc.ConvexStone(shape["vertices"], shape["triangles"])
+            self.assertAlmostEqual(bc.sieveSize(stone), 1.0, places=6)
+            self.assertAlmostEqual(stone.volume, shape["volume"], places=8)
+            coarse, fine = shape["clusters"]["coarse"], shape["clusters"]["fine"]
+            self.assertTrue(7 <= len(coarse["spheres"]) <= 16, shape["name"])
+            self.assertTrue(29 <= len(fine["spheres"]) <= 45, shape["name"])
+            for cluster in (coarse, fine):
+                quick = bc.sphereUnionMassProperties(cluster["spheres"], columns=200)
+                # 200 columns: accuracy ~3e-5 (single-sphere convergence above); 1e-3 catches a stale file.
+                self.assertLess(abs(quick["volume"] / cluster["volume"] - 1), 1e-3)
+                self.assertLess(abs(cluster["volumeError"]), 0.2)
+            self.assertLess(fine["symmetricDifference"], coarse["symmetricDifference"])
+
+    def test_ballast_sampler_fills_the_volume_with_library_stones(self):
+        stones = bc.sampleBallastStones(self.library, np.random.default_rng(5), 0.01)
+        volume = sum(s["mass"] for s in stones) / 2700.0
+        self.assertGreaterEqual(volume, 0.01)
+        for s in stones:
+            self.assertTrue(0.0224 <= s["sieveSize"] <= 0.063)
+            np.testing.assert_allclose(s["rotation"] @ s["rotation"].T, np.eye(3), atol=1e-12)
+
+
+class Grading(unittest.TestCase):
+    def test_sampled_mass_grading_meets_en13450(self):
+        rng = np.random.default_rng(1)
+        sizes = bc.sampleSieveSizes(rng, 40000)
+        masses = sizes ** 3  # one shape, so mass is proportional to d^3
+        report = bc.gradingReport(sizes, masses)
+        self.assertTrue(report["compliant"], report)
+        # Number sampling reproduces the MASS target: with 40000 stones the sampling error of a passing
+        # percentage is about 0.5 % (binomial on mass-weighted counts); 2 % bounds it.
+        np.testing.assert_allclose(report["passing"], bc.DEFAULT_TARGET_PASSING, atol=2.0)
+        self.assertTrue(np.all((sizes >= 22.4) & (sizes <= 63.0)))
+
+    def test_non_compliant_grading_is_detected(self):
+        sizes = np.full(100, 35.0)  # everything between 31.5 and 40 mm: 0 % passes 31.5, 100 % passes 40
+        report = bc.gradingReport(sizes, np.ones(100))
+        self.assertFalse(report["compliant"])
+
+
+if __name__ == "__main__":
+    unittest.main()

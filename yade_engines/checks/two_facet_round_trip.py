@@ -1,0 +1,74 @@
+# YADE check: a sphere resting on a two-triangle surface served by the stand-in FEM participant.
+# Oracles: the lumped nodal forces add up to the sphere's weight, their centroid lies under the sphere
+# (moment conservation), and the surface comes back displaced by F/k at every node (the stand-in's
+# nodes are independent springs), with the facets following the received node positions.
+# Run: ./railcosim yade yade_engines/checks/two_facet_round_trip.py PATH/TO/railcosim_dummy_fem
+import os
+import subprocess
+import sys
+import uuid
+
+dummy_fem = sys.argv[1]
+stiffness = 2.0e5  # N/m per node
+endpoint = f"ipc:///tmp/railcosim-check-{os.getpid()}-{uuid.uuid4().hex[:6]}.sock"
+fem = subprocess.Popen([dummy_fem, "--endpoint", endpoint, "--nx", "2", "--ny", "2", "--spacing", "0.2",
+                        "--dt", "2e-4", "--mass", "0.05", "--stiffness", str(stiffness), "--timeout", "30"])
+failures = []
+
+
+def check(condition, message):
+    print(("ok:   " if condition else "FAIL: ") + message, flush=True)
+    if not condition:
+        failures.append(message)
+
+
+radius, centre_xy = 0.02, (0.13, 0.06)
+mat = O.materials.append(FrictMat(young=5e7, poisson=0.3, density=7800, frictionAngle=0.5))
+sphere = O.bodies.append(utils.sphere((centre_xy[0], centre_xy[1], radius * 1.01), radius, material=mat))
+coupling = FemCouplingEngine(endpoint=endpoint, material=O.materials[mat], timeout=30, label="coupling")
+O.engines = [ForceResetter(), InsertionSortCollider([Bo1_Sphere_Aabb(), Bo1_Facet_Aabb()]),
+             InteractionLoop([Ig2_Facet_Sphere_ScGeom()], [Ip2_FrictMat_FrictMat_FrictPhys()],
+                             [Law2_ScGeom_FrictPhys_CundallStrack()]),
+             coupling, NewtonIntegrator(damping=0.6, gravity=(0, 0, -9.81))]
+O.dt = 2e-5
+coupling.connect()
+check(len(coupling.facetIds) == 2 and len(coupling.nodePositions) == 4, "two facets on four nodes received")
+check(coupling.subcycles == 10, f"sub-cycling ratio femDt/O.dt = 10 (got {coupling.subcycles})")
+
+# Average over the last windows: the stand-in's springs are undamped, so a small vibration remains.
+sums = {"force": Vector3.Zero, "moment_x": 0.0, "moment_y": 0.0, "spring": 0.0, "count": 0}
+O.run(10 * 1500 + 1, True)
+for _ in range(200):
+    O.run(10, True)
+    forces, positions = coupling.nodalForces, coupling.nodePositions
+    total = sum(forces, Vector3.Zero)
+    sums["force"] += total
+    sums["moment_x"] += sum(f[2] * x[0] for f, x in zip(forces, positions))
+    sums["moment_y"] += sum(f[2] * x[1] for f, x in zip(forces, positions))
+    sums["count"] += 1
+coupling.finalize()
+fem.wait(10)
+
+n = sums["count"]
+weight = O.bodies[sphere].state.mass * 9.81
+mean_force = sums["force"] / n
+# 1 % leaves room for the residual vibration of the undamped springs; lumping itself is exact.
+check(abs(mean_force[2] + weight) < 0.01 * weight, f"total nodal force {mean_force[2]:.5f} N = -weight {-weight:.5f} N")
+centroid = (sums["moment_x"] / n / mean_force[2], sums["moment_y"] / n / mean_force[2])
+sphere_pos = O.bodies[sphere].state.pos
+# The contact point is the sphere's foot; 1 mm covers its sway on the vibrating surface.
+check(abs(centroid[0] - sphere_pos[0]) < 1e-3 and abs(centroid[1] - sphere_pos[1]) < 1e-3,
+      f"force centroid {centroid} under the sphere ({sphere_pos[0]:.4f}, {sphere_pos[1]:.4f})")
+# Round trip: the node positions received back are z = F/k (springs at rest under the sent forces).
+for i, (f, x) in enumerate(zip(coupling.nodalForces, coupling.nodePositions)):
+    expected = f[2] / stiffness
+    check(abs(x[2] - expected) <= 0.05 * weight / stiffness, f"node {i}: z = {x[2]:.3e} m, F/k = {expected:.3e} m")
+# The facets follow the nodes: facet vertex in world frame = node position at the same instant.
+tri = coupling.triangles[0]
+b = O.bodies[coupling.facetIds[0]]
+world = [b.state.pos + b.shape.vertices[j] for j in range(3)]
+gap = max((world[j] - coupling.nodePositions[tri[j]]).norm() for j in range(3))
+check(gap < 1e-9 + 2 * O.dt * max(v.norm() for v in coupling.nodeVelocities), f"facet vertices on the nodes (gap {gap:.2e} m)")
+check(fem.returncode == 0, f"stand-in FEM exited cleanly (code {fem.returncode})")
+print("two_facet_round_trip:", "FAILED" if failures else "passed", flush=True)
+sys.exit(1 if failures else 0)

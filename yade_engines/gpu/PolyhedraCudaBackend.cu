@@ -1,0 +1,361 @@
+// CUDA backend: the per-stone functions of PolyhedraStep.hpp as kernels, state resident on the device,
+// one step = predict, forces, correct (+ grid rebuild), replayed as CUDA Graphs of one rebuild interval.
+#include <cub/device/device_radix_sort.cuh>
+#include <cuda_runtime.h>
+
+#include <string>
+#include <vector>
+
+#include "PolyhedraBackend.hpp"
+#include "railcosim/Error.hpp"
+
+namespace railcosim::polyhedra {
+
+namespace {
+
+void check(cudaError_t status, const char* what) {
+    if (status != cudaSuccess)
+        throw Error(std::string("polyhedra CUDA backend: ") + what + " failed: " + cudaGetErrorString(status) +
+                    "; rerun with Backend::Cpu to use the CPU reference");
+}
+
+// Owning device array; plain RAII around cudaMalloc/cudaFree.
+template <typename T>
+class DeviceArray {
+public:
+    DeviceArray() = default;
+    DeviceArray(const DeviceArray&) = delete;
+    DeviceArray& operator=(const DeviceArray&) = delete;
+    ~DeviceArray() {
+        if (data_) cudaFree(data_);
+    }
+    void resize(std::size_t count) {
+        if (count == count_ && data_) return;
+        if (data_) cudaFree(data_);
+        data_ = nullptr;
+        count_ = count;
+        if (count > 0) check(cudaMalloc(&data_, count * sizeof(T)), "cudaMalloc");
+    }
+    void upload(const std::vector<T>& host, cudaStream_t stream) {
+        resize(host.size());
+        if (!host.empty()) check(cudaMemcpyAsync(data_, host.data(), host.size() * sizeof(T), cudaMemcpyHostToDevice, stream), "upload");
+    }
+    void download(std::vector<T>& host, cudaStream_t stream) const {
+        host.resize(count_);
+        if (count_ > 0) check(cudaMemcpyAsync(host.data(), data_, count_ * sizeof(T), cudaMemcpyDeviceToHost, stream), "download");
+    }
+    T* get() const { return data_; }
+    std::size_t size() const { return count_; }
+
+private:
+    T* data_ = nullptr;
+    std::size_t count_ = 0;
+};
+
+constexpr int blockSize = 128;
+
+int blocks(int count) { return (count + blockSize - 1) / blockSize; }
+
+__global__ void __launch_bounds__(blockSize) predictKernel(SystemView s) {
+    const int k = blockIdx.x * blockDim.x + threadIdx.x;
+    if (k < s.stoneCount) {
+        predictStone(s, k);
+    } else if (k - s.stoneCount < s.nodeCount) {
+        moveNode(s, k - s.stoneCount);
+    }
+}
+
+// Minimum resident blocks per multiprocessor for the force kernel: caps its registers (1 → up to 255,
+// 2 → 255, 3 → 168, 4 → 128) and so trades register spills for occupancy. Chosen by measurement
+// (docs/benchmarks.md); override with -DRAILCOSIM_POLYHEDRA_FORCE_MIN_BLOCKS=n.
+#ifndef RAILCOSIM_POLYHEDRA_FORCE_MIN_BLOCKS
+#define RAILCOSIM_POLYHEDRA_FORCE_MIN_BLOCKS 1
+#endif
+
+__global__ void __launch_bounds__(blockSize, RAILCOSIM_POLYHEDRA_FORCE_MIN_BLOCKS) forcesKernel(SystemView s) {
+    const int i = blockIdx.x * blockDim.x + threadIdx.x;
+    if (i < s.stoneCount) stoneForces(s, i);
+}
+
+__global__ void __launch_bounds__(blockSize) correctKernel(SystemView s) {
+    const int i = blockIdx.x * blockDim.x + threadIdx.x;
+    if (i < s.stoneCount) correctStone(s, i);
+}
+
+__global__ void __launch_bounds__(blockSize) cellKeyKernel(SystemView s) {
+    const int i = blockIdx.x * blockDim.x + threadIdx.x;
+    if (i < s.stoneCount) computeCellKey(s, i);
+}
+
+__global__ void __launch_bounds__(blockSize) cellBoundsKernel(SystemView s) {
+    const int k = blockIdx.x * blockDim.x + threadIdx.x;
+    if (k < s.stoneCount) findCellBounds(s, k);
+}
+
+__global__ void __launch_bounds__(blockSize) neighbourKernel(SystemView s, const ContactSlot* previousPairs, const std::int32_t* previousPairCount,
+                                                             const ContactSlot* previousWalls, const std::int32_t* previousWallCount) {
+    const int i = blockIdx.x * blockDim.x + threadIdx.x;
+    if (i < s.stoneCount) buildNeighbours(s, i, previousPairs, previousPairCount, previousWalls, previousWallCount);
+}
+
+class CudaBackend final : public PolyhedraBackend {
+public:
+    CudaBackend() { check(cudaStreamCreateWithFlags(&stream_, cudaStreamNonBlocking), "cudaStreamCreate"); }
+    ~CudaBackend() override {
+        for (auto& g : graphs_)
+            if (g) cudaGraphExecDestroy(g);
+        if (stream_) cudaStreamDestroy(stream_);
+    }
+
+    void upload(HostData& d) override {
+        position_.upload(d.position, stream_);
+        velocity_.upload(d.velocity, stream_);
+        orientation_.upload(d.orientation, stream_);
+        omegaBody_.upload(d.omegaBody, stream_);
+        omegaBodyHalf_.upload(d.omegaBodyHalf, stream_);
+        omegaWorld_.upload(d.omegaWorld, stream_);
+        force_.upload(d.force, stream_);
+        torque_.upload(d.torque, stream_);
+        reference_.upload(d.referencePosition, stream_);
+        shape_.upload(d.shape, stream_);
+        shapes_.upload(d.shapes, stream_);
+        vertices_.upload(d.shapeVertices, stream_);
+        nodePosition_.upload(d.nodePosition, stream_);
+        nodeVelocity_.upload(d.nodeVelocity, stream_);
+        triangles_.upload(d.triangles, stream_);
+        triangleForce_.upload(d.triangleForceSum, stream_);
+        trianglePoint_.upload(d.trianglePointSum, stream_);
+        triangleWeight_.upload(d.triangleWeightSum, stream_);
+        for (int b = 0; b < 2; ++b) {
+            pairSlots_[b].upload(b == current_ ? d.pairSlots : d.pairSlotsPrevious, stream_);
+            pairCount_[b].upload(b == current_ ? d.pairCount : d.pairCountPrevious, stream_);
+            wallSlots_[b].upload(b == current_ ? d.wallSlots : d.wallSlotsPrevious, stream_);
+            wallCount_[b].upload(b == current_ ? d.wallCount : d.wallCountPrevious, stream_);
+        }
+        pairOutput_.upload(d.pairOutput, stream_);
+        wallOutput_.upload(d.wallOutput, stream_);
+        cellKey_.upload(d.cellKey, stream_);
+        sortedStone_.upload(d.sortedStone, stream_);
+        rawKey_.resize(d.cellKey.size());
+        rawStone_.resize(d.sortedStone.size());
+        cellStart_.upload(d.cellStart, stream_);
+        cellEnd_.upload(d.cellEnd, stream_);
+        counters_.resize(counterCount);
+        std::size_t bytes = 0;
+        check(cub::DeviceRadixSort::SortPairs(nullptr, bytes, rawKey_.get(), cellKey_.get(), rawStone_.get(), sortedStone_.get(),
+                                              d.stoneCount, 0, sortBits(d.tableSize), stream_),
+              "cub sort size query");
+        sortTemp_.resize(bytes > 0 ? bytes : 1);
+        check(cudaStreamSynchronize(stream_), "upload");
+        invalidateGraphs();
+    }
+
+    void parametersChanged() override { invalidateGraphs(); }
+
+    void uploadSurface(HostData& d) override {
+        nodePosition_.upload(d.nodePosition, stream_);
+        nodeVelocity_.upload(d.nodeVelocity, stream_);
+        check(cudaStreamSynchronize(stream_), "surface upload");
+    }
+
+    void download(HostData& d) override {
+        position_.download(d.position, stream_);
+        velocity_.download(d.velocity, stream_);
+        orientation_.download(d.orientation, stream_);
+        omegaBody_.download(d.omegaBody, stream_);
+        omegaBodyHalf_.download(d.omegaBodyHalf, stream_);
+        omegaWorld_.download(d.omegaWorld, stream_);
+        force_.download(d.force, stream_);
+        torque_.download(d.torque, stream_);
+        reference_.download(d.referencePosition, stream_);
+        nodePosition_.download(d.nodePosition, stream_);
+        triangleForce_.download(d.triangleForceSum, stream_);
+        trianglePoint_.download(d.trianglePointSum, stream_);
+        triangleWeight_.download(d.triangleWeightSum, stream_);
+        pairSlots_[current_].download(d.pairSlots, stream_);
+        pairCount_[current_].download(d.pairCount, stream_);
+        wallSlots_[current_].download(d.wallSlots, stream_);
+        wallCount_[current_].download(d.wallCount, stream_);
+        pairSlots_[1 - current_].download(d.pairSlotsPrevious, stream_);
+        pairCount_[1 - current_].download(d.pairCountPrevious, stream_);
+        wallSlots_[1 - current_].download(d.wallSlotsPrevious, stream_);
+        wallCount_[1 - current_].download(d.wallCountPrevious, stream_);
+        pairOutput_.download(d.pairOutput, stream_);
+        wallOutput_.download(d.wallOutput, stream_);
+        check(cudaStreamSynchronize(stream_), "download");
+    }
+
+    void step(HostData& d, int steps, BackendCounters& result) override {
+        check(cudaMemsetAsync(counters_.get(), 0, counterCount * sizeof(unsigned long long), stream_), "counter reset");
+        zeroTriangleSums();
+        if (!d.forcesValid) {
+            enqueueRebuild(d);
+            SystemView prime = view(d);
+            prime.timeStep = 0.0;  // initial forces without moving the tangential springs
+            forcesKernel<<<blocks(d.stoneCount), blockSize, 0, stream_>>>(prime);
+            check(cudaGetLastError(), "initial force kernel");
+            zeroTriangleSums();
+            check(cudaMemsetAsync(counters_.get() + counterActive, 0, sizeof(unsigned long long), stream_), "counter reset");
+            d.forcesValid = true;
+            ++result.rebuilds;
+        }
+        const int interval = d.rebuildInterval;
+        int done = 0;
+        while (steps - done >= interval) {
+            // A chunk starts with the rebuild that turns buffer `current_` into `1 − current_`: one graph per parity.
+            const int parity = current_;
+            if (!graphs_[parity]) {
+                cudaGraph_t graph;
+                check(cudaStreamBeginCapture(stream_, cudaStreamCaptureModeThreadLocal), "graph capture");
+                enqueueChunk(d, interval);
+                check(cudaStreamEndCapture(stream_, &graph), "graph capture");
+                check(cudaGraphInstantiate(&graphs_[parity], graph, 0), "graph instantiate");
+                cudaGraphDestroy(graph);
+                current_ = parity;  // capture only recorded the chunk; replay below performs it
+            }
+            check(cudaGraphLaunch(graphs_[parity], stream_), "graph launch");
+            current_ = 1 - parity;
+            done += interval;
+            result.rebuilds += 1;
+        }
+        if (done < steps) {
+            enqueueChunk(d, steps - done);
+            result.rebuilds += 1;
+        }
+        std::vector<unsigned long long> counters(counterCount);
+        check(cudaMemcpyAsync(counters.data(), counters_.get(), counterCount * sizeof(unsigned long long), cudaMemcpyDeviceToHost, stream_),
+              "counter download");
+        check(cudaStreamSynchronize(stream_), "step");
+        for (int k = 0; k < counterCount; ++k) result.values[k] = counters[k];
+    }
+
+private:
+    static int sortBits(std::uint32_t tableSize) {
+        int bits = 0;
+        while ((1u << bits) < tableSize) ++bits;
+        return bits;
+    }
+
+    SystemView view(HostData& d) {
+        SystemView v = d.view();  // scalars; pointers replaced by device ones
+        v.position = position_.get();
+        v.velocity = velocity_.get();
+        v.orientation = orientation_.get();
+        v.omegaBody = omegaBody_.get();
+        v.omegaBodyHalf = omegaBodyHalf_.get();
+        v.omegaWorld = omegaWorld_.get();
+        v.force = force_.get();
+        v.torque = torque_.get();
+        v.referencePosition = reference_.get();
+        v.shape = shape_.get();
+        v.shapes = shapes_.get();
+        v.shapeVertices = vertices_.get();
+        v.nodePosition = nodePosition_.get();
+        v.nodeVelocity = nodeVelocity_.get();
+        v.triangles = triangles_.get();
+        v.triangleForceSum = triangleForce_.get();
+        v.trianglePointSum = trianglePoint_.get();
+        v.triangleWeightSum = triangleWeight_.get();
+        v.pairSlots = pairSlots_[current_].get();
+        v.pairOutput = pairOutput_.get();
+        v.pairCount = pairCount_[current_].get();
+        v.wallSlots = wallSlots_[current_].get();
+        v.wallOutput = wallOutput_.get();
+        v.wallCount = wallCount_[current_].get();
+        v.cellKey = cellKey_.get();
+        v.sortedStone = sortedStone_.get();
+        v.cellStart = cellStart_.get();
+        v.cellEnd = cellEnd_.get();
+        v.counters = counters_.get();
+        return v;
+    }
+
+    void zeroTriangleSums() {
+        if (triangleForce_.size() == 0) return;
+        check(cudaMemsetAsync(triangleForce_.get(), 0, triangleForce_.size() * sizeof(double), stream_), "memset");
+        check(cudaMemsetAsync(trianglePoint_.get(), 0, trianglePoint_.size() * sizeof(double), stream_), "memset");
+        check(cudaMemsetAsync(triangleWeight_.get(), 0, triangleWeight_.size() * sizeof(double), stream_), "memset");
+    }
+
+    void enqueueRebuild(HostData& d) {
+        SystemView raw = view(d);
+        raw.cellKey = rawKey_.get();
+        raw.sortedStone = rawStone_.get();
+        cellKeyKernel<<<blocks(d.stoneCount), blockSize, 0, stream_>>>(raw);
+        check(cudaGetLastError(), "cell key kernel");
+        std::size_t bytes = sortTemp_.size();
+        check(cub::DeviceRadixSort::SortPairs(sortTemp_.get(), bytes, rawKey_.get(), cellKey_.get(), rawStone_.get(), sortedStone_.get(),
+                                              d.stoneCount, 0, sortBits(d.tableSize), stream_),
+              "cub sort");
+        check(cudaMemsetAsync(cellStart_.get(), 0xff, cellStart_.size() * sizeof(std::int32_t), stream_), "memset");
+        SystemView v = view(d);
+        cellBoundsKernel<<<blocks(d.stoneCount), blockSize, 0, stream_>>>(v);
+        check(cudaGetLastError(), "cell bounds kernel");
+        const int previous = current_;
+        current_ = 1 - current_;
+        v = view(d);
+        neighbourKernel<<<blocks(d.stoneCount), blockSize, 0, stream_>>>(v, pairSlots_[previous].get(), pairCount_[previous].get(),
+                                                                          wallSlots_[previous].get(), wallCount_[previous].get());
+        check(cudaGetLastError(), "neighbour kernel");
+    }
+
+    // `count` steps, the first with a neighbour rebuild (as the CPU reference: step index % interval == 0).
+    void enqueueChunk(HostData& d, int count) {
+        for (int s = 0; s < count; ++s) {
+            SystemView v = view(d);
+            predictKernel<<<blocks(d.stoneCount + v.nodeCount), blockSize, 0, stream_>>>(v);
+            check(cudaGetLastError(), "predict kernel");
+            if (s == 0) enqueueRebuild(d);
+            v = view(d);
+            forcesKernel<<<blocks(d.stoneCount), blockSize, 0, stream_>>>(v);
+            check(cudaGetLastError(), "force kernel");
+            correctKernel<<<blocks(d.stoneCount), blockSize, 0, stream_>>>(v);
+            check(cudaGetLastError(), "correct kernel");
+        }
+    }
+
+    void invalidateGraphs() {
+        for (auto& g : graphs_) {
+            if (g) cudaGraphExecDestroy(g);
+            g = nullptr;
+        }
+    }
+
+    cudaStream_t stream_ = nullptr;
+    cudaGraphExec_t graphs_[2] = {nullptr, nullptr};
+    int current_ = 0;
+    DeviceArray<double> position_, velocity_, orientation_, omegaBody_, omegaBodyHalf_, omegaWorld_, force_, torque_,
+        reference_, vertices_, nodePosition_, nodeVelocity_, triangleForce_, trianglePoint_, triangleWeight_;
+    DeviceArray<std::int32_t> shape_, triangles_, pairCount_[2], wallCount_[2], sortedStone_, rawStone_, cellStart_, cellEnd_;
+    DeviceArray<ShapeData> shapes_;
+    DeviceArray<ContactSlot> pairSlots_[2], wallSlots_[2];
+    DeviceArray<ContactOutput> pairOutput_, wallOutput_;
+    DeviceArray<std::uint32_t> cellKey_, rawKey_;
+    DeviceArray<unsigned long long> counters_;
+    DeviceArray<unsigned char> sortTemp_;
+};
+
+}  // namespace
+
+std::unique_ptr<PolyhedraBackend> makeCudaBackend(std::string& reason) {
+    int count = 0;
+    const cudaError_t status = cudaGetDeviceCount(&count);
+    if (status != cudaSuccess) {
+        reason = std::string("no CUDA device: ") + cudaGetErrorString(status);
+        cudaGetLastError();  // clear the sticky-free error so later runtime calls are not confused
+        return nullptr;
+    }
+    if (count == 0) {
+        reason = "no CUDA device found";
+        return nullptr;
+    }
+    cudaDeviceProp properties{};
+    if (cudaGetDeviceProperties(&properties, 0) != cudaSuccess || properties.major < 6) {
+        reason = "CUDA device 0 is older than compute capability 6.0 (double atomics needed)";
+        return nullptr;
+    }
+    reason = std::string("CUDA device 0: ") + properties.name;
+    return std::make_unique<CudaBackend>();
+}
+
+}  // namespace railcosim::polyhedra

@@ -1,0 +1,566 @@
+// Per-stone work of one DEM step (integration, neighbour search, contact forces), compiled by g++ and nvcc.
+#pragma once
+
+#include <cmath>
+#include <cstdint>
+
+#include "PolyhedraGeometry.hpp"
+#include "kernels/HertzMindlin.hpp"
+#include "kernels/HostDevice.hpp"
+#include "kernels/Vector3.hpp"
+
+#if defined(__CUDA_ARCH__)
+#define RAILCOSIM_POLYHEDRA_DEVICE_PASS 1
+#endif
+
+namespace railcosim::polyhedra {
+
+// Per-shape constants (one entry per template; read through the cache by every contact).
+struct ShapeData {
+    int firstVertex;          // offset into the vertex array (in vertices)
+    int vertexCount;
+    double dilationRadius;    // r_d [m]
+    double boundingRadius;    // core circumradius + r_d [m]
+    double mass;              // [kg]
+    double inverseInertia[3]; // principal [1/(kg m^2)]
+    double inertia[3];        // principal [kg m^2]
+};
+
+// History of one contact candidate, kept across steps and carried over by partner id at list rebuilds.
+struct ContactSlot {
+    std::int32_t partner;     // stone j > i, or triangle index
+    std::int32_t active;      // 1 if in contact at the last evaluation
+    double elasticShear[3];   // elastic tangential force on the partner [N] (kernels/HertzMindlin.hpp)
+    double normal[3];         // last contact normal (GJK warm start, fallback for core overlap)
+    double overlap;           // last overlap δ [m] (unloading correction of the tangential spring)
+};
+
+// Output of an active contact (written only when active; read for reporting).
+struct ContactOutput {
+    double point[3];
+    double force[3];          // on the partner [N]
+};
+
+// Counters written by device code; index meaning below.
+enum Counter : int {
+    counterPairOverflow = 0,   // largest candidate count that did not fit (0: none)
+    counterWallOverflow = 1,
+    counterCoreOverlap = 2,
+    counterDangerous = 3,      // a stone moved farther than skin/2 since the last rebuild
+    counterActive = 4,
+    counterCount = 5
+};
+
+struct ContactLawConstants {
+    double effectiveYoungModulus;   // E* [Pa]
+    double effectiveShearModulus;   // G* [Pa]
+    double dampingRatio;            // γ from the restitution [-]
+    double friction;                // μ [-]
+};
+
+// Raw pointers into host or device arrays; the same view drives both backends.
+struct SystemView {
+    int stoneCount;
+    int nodeCount;
+    int triangleCount;
+    // stones (3 doubles per vector, 4 per quaternion w,x,y,z)
+    double* position;
+    double* velocity;            // v^n after correct, v^{n+1/2} between predict and correct
+    double* orientation;         // q^n
+    double* omegaBody;           // ω'^n (principal frame); between predict and correct ω'^n + Δt/2 I'^{-1}T'^n
+    double* omegaBodyHalf;       // ω'^{n+1/2}
+    double* omegaWorld;          // world ω used by contacts (ω^{n+1/2} during force evaluation)
+    double* force;
+    double* torque;
+    double* referencePosition;   // position at the last neighbour rebuild
+    const std::int32_t* shape;
+    const ShapeData* shapes;
+    const double* shapeVertices;
+    // surface
+    double* nodePosition;
+    const double* nodeVelocity;
+    const std::int32_t* triangles;
+    double* triangleForceSum;    // Σ over contacts and steps of the force on the triangle
+    double* trianglePointSum;    // Σ |F| x_c
+    double* triangleWeightSum;   // Σ |F|
+    // contact candidates
+    int maxPairs;
+    int maxWalls;
+    ContactSlot* pairSlots;      // stoneCount × maxPairs
+    ContactOutput* pairOutput;
+    std::int32_t* pairCount;
+    ContactSlot* wallSlots;      // stoneCount × maxWalls
+    ContactOutput* wallOutput;
+    std::int32_t* wallCount;
+    // hashed uniform grid
+    std::uint32_t* cellKey;      // per stone, sorted in place with sortedStone
+    std::int32_t* sortedStone;
+    std::int32_t* cellStart;     // per hash bucket, −1 when empty
+    std::int32_t* cellEnd;
+    std::uint32_t tableSize;     // power of two
+    double cellSize;
+    // parameters
+    double timeStep;
+    Vec3 gravity;
+    double skin;
+    double featureTolerance;     // fraction of r_d
+    ContactLawConstants stoneLaw;
+    ContactLawConstants wallLaw;
+    unsigned long long* counters;
+};
+
+// ---------------------------------------------------------------------------------------------------
+// Small helpers shared by both passes.
+// ---------------------------------------------------------------------------------------------------
+RAILCOSIM_HOST_DEVICE inline Vec3 load3(const double* a, int i) { return Vec3{a[3 * i], a[3 * i + 1], a[3 * i + 2]}; }
+RAILCOSIM_HOST_DEVICE inline void store3(double* a, int i, const Vec3& v) {
+    a[3 * i] = v.x;
+    a[3 * i + 1] = v.y;
+    a[3 * i + 2] = v.z;
+}
+RAILCOSIM_HOST_DEVICE inline Quat loadQuat(const double* a, int i) { return Quat{a[4 * i], a[4 * i + 1], a[4 * i + 2], a[4 * i + 3]}; }
+RAILCOSIM_HOST_DEVICE inline void storeQuat(double* a, int i, const Quat& q) {
+    a[4 * i] = q.w;
+    a[4 * i + 1] = q.x;
+    a[4 * i + 2] = q.y;
+    a[4 * i + 3] = q.z;
+}
+
+// Atomic accumulation: hardware atomics on the device, OpenMP atomics in the CPU reference.
+RAILCOSIM_HOST_DEVICE inline void atomicAccumulate(double* address, double value) {
+#if defined(RAILCOSIM_POLYHEDRA_DEVICE_PASS)
+    atomicAdd(address, value);
+#else
+#pragma omp atomic
+    *address += value;
+#endif
+}
+
+RAILCOSIM_HOST_DEVICE inline void atomicAccumulate3(double* array, int i, const Vec3& v) {
+    atomicAccumulate(array + 3 * i, v.x);
+    atomicAccumulate(array + 3 * i + 1, v.y);
+    atomicAccumulate(array + 3 * i + 2, v.z);
+}
+
+RAILCOSIM_HOST_DEVICE inline void atomicMaximum(unsigned long long* address, unsigned long long value) {
+#if defined(RAILCOSIM_POLYHEDRA_DEVICE_PASS)
+    atomicMax(address, value);
+#else
+    // Read-then-compare-and-swap loop without <atomic> on a plain array shared with the device layout.
+#pragma omp critical(railcosimPolyhedraCounters)
+    {
+        if (*address < value) *address = value;
+    }
+#endif
+}
+
+RAILCOSIM_HOST_DEVICE inline void atomicIncrement(unsigned long long* address) {
+#if defined(RAILCOSIM_POLYHEDRA_DEVICE_PASS)
+    atomicAdd(address, 1ull);
+#else
+#pragma omp atomic
+    *address += 1ull;
+#endif
+}
+
+RAILCOSIM_HOST_DEVICE inline ConvexCore stoneCore(const SystemView& s, int i) {
+    const ShapeData& shape = s.shapes[s.shape[i]];
+    return ConvexCore{s.shapeVertices + 3 * shape.firstVertex, shape.vertexCount, rotationMatrix(loadQuat(s.orientation, i)),
+                      load3(s.position, i), nullptr};
+}
+
+// ---------------------------------------------------------------------------------------------------
+// Integration: velocity Verlet for translation, Zhao–van Wachem predictor–corrector for rotation
+// (seed000 §5.5 eqs. 5.47–5.54, split into PREDICT before and CORRECT after the force evaluation as in
+// Kratos; the correction averages old and new torque, see correctStone).
+// ---------------------------------------------------------------------------------------------------
+RAILCOSIM_HOST_DEVICE inline Vec3 eulerAcceleration(const ShapeData& shape, const Vec3& torqueBody, const Vec3& omegaBody) {
+    // ω̇' = I'^{-1} (T' − ω' × I'ω'), eq. 5.49, principal axes.
+    const Vec3 angularMomentum{shape.inertia[0] * omegaBody.x, shape.inertia[1] * omegaBody.y, shape.inertia[2] * omegaBody.z};
+    const Vec3 net = torqueBody - kernels::cross(omegaBody, angularMomentum);
+    return Vec3{net.x * shape.inverseInertia[0], net.y * shape.inverseInertia[1], net.z * shape.inverseInertia[2]};
+}
+
+RAILCOSIM_HOST_DEVICE inline void predictStone(const SystemView& s, int i) {
+    const ShapeData& shape = s.shapes[s.shape[i]];
+    const double dt = s.timeStep;
+    const Vec3 force = load3(s.force, i);
+    const Vec3 acceleration = force / shape.mass + s.gravity;
+    const Vec3 velocityHalf = load3(s.velocity, i) + (0.5 * dt) * acceleration;
+    const Vec3 position = load3(s.position, i) + dt * velocityHalf;
+    store3(s.velocity, i, velocityHalf);
+    store3(s.position, i, position);
+
+    const Quat q = loadQuat(s.orientation, i);
+    const Vec3 omegaBody = load3(s.omegaBody, i);
+    const Vec3 torqueBody = rotateInverse(q, load3(s.torque, i));                // eq. 5.47
+    const Vec3 alpha = eulerAcceleration(shape, torqueBody, omegaBody);          // eq. 5.49
+    const Vec3 omegaQuarter = omegaBody + (0.25 * dt) * alpha;                    // eq. 5.48
+    const Vec3 omegaBodyHalf = omegaBody + (0.5 * dt) * alpha;
+    const Quat qHalf = normalized(multiply(rotationIncrement(rotate(q, omegaQuarter), 0.5 * dt), q));  // 5.50–5.51
+    const Vec3 omegaHalfWorld = rotate(qHalf, omegaBodyHalf);                    // eq. 5.52
+    const Quat qNew = normalized(multiply(rotationIncrement(omegaHalfWorld, dt), q));  // eq. 5.53
+    storeQuat(s.orientation, i, qNew);
+    store3(s.omegaBodyHalf, i, omegaBodyHalf);
+    store3(s.omegaWorld, i, omegaHalfWorld);
+    // Torque half-kick of the old torque, kept for the correction (omegaBody holds it until correctStone).
+    const Vec3 torqueKick{torqueBody.x * shape.inverseInertia[0], torqueBody.y * shape.inverseInertia[1], torqueBody.z * shape.inverseInertia[2]};
+    store3(s.omegaBody, i, omegaBody + (0.5 * dt) * torqueKick);
+    // Forces of the next evaluation accumulate from zero.
+    store3(s.force, i, Vec3{0.0, 0.0, 0.0});
+    store3(s.torque, i, Vec3{0.0, 0.0, 0.0});
+    const Vec3 moved = position - load3(s.referencePosition, i);
+    if (kernels::squaredNorm(moved) > 0.25 * s.skin * s.skin) atomicMaximum(&s.counters[counterDangerous], 1ull);
+}
+
+// Eq. 5.54 with the torque averaged over the step: ω'^{n+1} = ω'^n + Δt I'^{-1}[(T'^n + T'^{n+1})/2 −
+// ω'^{n+1/2} × I'ω'^{n+1/2}], T'^k = q^{k*} T^k q^k. The printed form (new torque only, rotated by
+// q^{n+1/2}) applies T^{n+1} over the whole step: first order in the torque timing, which showed as an
+// energy error ∝ Δt in the dissipation-free collision test; the average makes it second order, as
+// velocity Verlet is for the forces, and is identical for torque-free motion.
+RAILCOSIM_HOST_DEVICE inline void correctStone(const SystemView& s, int i) {
+    const ShapeData& shape = s.shapes[s.shape[i]];
+    const double dt = s.timeStep;
+    const Vec3 acceleration = load3(s.force, i) / shape.mass + s.gravity;
+    store3(s.velocity, i, load3(s.velocity, i) + (0.5 * dt) * acceleration);
+    const Quat q = loadQuat(s.orientation, i);
+    const Vec3 omegaBodyHalf = load3(s.omegaBodyHalf, i);
+    const Vec3 torqueBody = rotateInverse(q, load3(s.torque, i));
+    const Vec3 momentum{shape.inertia[0] * omegaBodyHalf.x, shape.inertia[1] * omegaBodyHalf.y, shape.inertia[2] * omegaBodyHalf.z};
+    const Vec3 gyroscopic = kernels::cross(omegaBodyHalf, momentum);
+    const Vec3 change{(0.5 * torqueBody.x - gyroscopic.x) * shape.inverseInertia[0], (0.5 * torqueBody.y - gyroscopic.y) * shape.inverseInertia[1],
+                      (0.5 * torqueBody.z - gyroscopic.z) * shape.inverseInertia[2]};
+    const Vec3 omegaBody = load3(s.omegaBody, i) + dt * change;
+    store3(s.omegaBody, i, omegaBody);
+    store3(s.omegaWorld, i, rotate(q, omegaBody));  // eq. 5.54b
+}
+
+// Surface nodes move with their prescribed velocity during a coupling window.
+RAILCOSIM_HOST_DEVICE inline void moveNode(const SystemView& s, int k) {
+    store3(s.nodePosition, k, load3(s.nodePosition, k) + s.timeStep * load3(s.nodeVelocity, k));
+}
+
+// ---------------------------------------------------------------------------------------------------
+// Broad phase: hashed uniform grid of cell size ≥ the largest bounding diameter + skin.
+// ---------------------------------------------------------------------------------------------------
+RAILCOSIM_HOST_DEVICE inline std::uint32_t cellHash(long long ix, long long iy, long long iz, std::uint32_t tableSize) {
+    const std::uint64_t h = (static_cast<std::uint64_t>(ix) * 73856093ull) ^ (static_cast<std::uint64_t>(iy) * 19349663ull) ^
+                            (static_cast<std::uint64_t>(iz) * 83492791ull);
+    return static_cast<std::uint32_t>(h & (tableSize - 1));
+}
+
+RAILCOSIM_HOST_DEVICE inline void cellOf(const SystemView& s, const Vec3& x, long long& ix, long long& iy, long long& iz) {
+    ix = static_cast<long long>(std::floor(x.x / s.cellSize));
+    iy = static_cast<long long>(std::floor(x.y / s.cellSize));
+    iz = static_cast<long long>(std::floor(x.z / s.cellSize));
+}
+
+RAILCOSIM_HOST_DEVICE inline void computeCellKey(const SystemView& s, int i) {
+    long long ix, iy, iz;
+    cellOf(s, load3(s.position, i), ix, iy, iz);
+    s.cellKey[i] = cellHash(ix, iy, iz, s.tableSize);
+    s.sortedStone[i] = i;
+}
+
+// After sorting (cellKey, sortedStone) by key: first and one-past-last sorted index of each bucket.
+RAILCOSIM_HOST_DEVICE inline void findCellBounds(const SystemView& s, int k) {
+    const std::uint32_t key = s.cellKey[k];
+    if (k == 0 || s.cellKey[k - 1] != key) s.cellStart[key] = k;
+    if (k == s.stoneCount - 1 || s.cellKey[k + 1] != key) s.cellEnd[key] = k + 1;
+}
+
+// Copies the history of partner `partner` from the previous list of stone i, if it was there.
+RAILCOSIM_HOST_DEVICE inline ContactSlot carriedSlot(const ContactSlot* previous, int previousCount, int partner) {
+    for (int k = 0; k < previousCount; ++k) {
+        if (previous[k].partner == partner) return previous[k];
+    }
+    return ContactSlot{partner, 0, {0.0, 0.0, 0.0}, {0.0, 0.0, 0.0}, 0.0};
+}
+
+// Squared distance from p to triangle (a,b,c) (Ericson §5.1.5), for the wall candidate test.
+RAILCOSIM_HOST_DEVICE inline Vec3 closestPointOnTriangle(const Vec3& p, const Vec3& a, const Vec3& b, const Vec3& c) {
+    const Vec3 ab = b - a, ac = c - a, ap = p - a;
+    const double d1 = kernels::dot(ab, ap), d2 = kernels::dot(ac, ap);
+    if (d1 <= 0.0 && d2 <= 0.0) return a;
+    const Vec3 bp = p - b;
+    const double d3 = kernels::dot(ab, bp), d4 = kernels::dot(ac, bp);
+    if (d3 >= 0.0 && d4 <= d3) return b;
+    const double vc = d1 * d4 - d3 * d2;
+    if (vc <= 0.0 && d1 >= 0.0 && d3 <= 0.0) return a + (d1 / (d1 - d3)) * ab;
+    const Vec3 cp = p - c;
+    const double d5 = kernels::dot(ab, cp), d6 = kernels::dot(ac, cp);
+    if (d6 >= 0.0 && d5 <= d6) return c;
+    const double vb = d5 * d2 - d1 * d6;
+    if (vb <= 0.0 && d2 >= 0.0 && d6 <= 0.0) return a + (d2 / (d2 - d6)) * ac;
+    const double va = d3 * d6 - d5 * d4;
+    if (va <= 0.0 && (d4 - d3) >= 0.0 && (d5 - d6) >= 0.0) return b + ((d4 - d3) / ((d4 - d3) + (d5 - d6))) * (c - b);
+    const double denominator = 1.0 / (va + vb + vc);
+    return a + (vb * denominator) * ab + (vc * denominator) * ac;
+}
+
+// Rebuilds the candidate lists of stone i from the sorted grid (partners j > i within the bounding
+// distance plus skin) and the triangle candidates, carrying the contact history over by partner id.
+RAILCOSIM_HOST_DEVICE inline void buildNeighbours(const SystemView& s, int i, const ContactSlot* previousPairs,
+                                                  const std::int32_t* previousPairCount, const ContactSlot* previousWalls,
+                                                  const std::int32_t* previousWallCount) {
+    const Vec3 x = load3(s.position, i);
+    const double radius = s.shapes[s.shape[i]].boundingRadius;
+    long long cx, cy, cz;
+    cellOf(s, x, cx, cy, cz);
+    ContactSlot* out = s.pairSlots + static_cast<long long>(i) * s.maxPairs;
+    const ContactSlot* old = previousPairs + static_cast<long long>(i) * s.maxPairs;
+    const int oldCount = previousPairCount[i];
+    int count = 0;
+    int needed = 0;
+    // Hash collisions can map two of the 27 cells to one bucket: remember visited buckets.
+    std::uint32_t visited[27];
+    int visitedCount = 0;
+    for (int dz = -1; dz <= 1; ++dz) {
+        for (int dy = -1; dy <= 1; ++dy) {
+            for (int dx = -1; dx <= 1; ++dx) {
+                const std::uint32_t bucket = cellHash(cx + dx, cy + dy, cz + dz, s.tableSize);
+                bool seen = false;
+                for (int k = 0; k < visitedCount; ++k) seen = seen || visited[k] == bucket;
+                if (seen) continue;
+                visited[visitedCount++] = bucket;
+                const int start = s.cellStart[bucket];
+                if (start < 0) continue;
+                const int end = s.cellEnd[bucket];
+                for (int k = start; k < end; ++k) {
+                    const int j = s.sortedStone[k];
+                    if (j <= i) continue;
+                    const double reach = radius + s.shapes[s.shape[j]].boundingRadius + s.skin;
+                    if (kernels::squaredNorm(load3(s.position, j) - x) > reach * reach) continue;
+                    ++needed;
+                    if (count < s.maxPairs) out[count++] = carriedSlot(old, oldCount, j);
+                }
+            }
+        }
+    }
+    s.pairCount[i] = count;
+    if (needed > s.maxPairs) atomicMaximum(&s.counters[counterPairOverflow], static_cast<unsigned long long>(needed));
+
+    ContactSlot* wallOut = s.wallSlots + static_cast<long long>(i) * s.maxWalls;
+    const ContactSlot* wallOld = previousWalls + static_cast<long long>(i) * s.maxWalls;
+    const int wallOldCount = previousWallCount[i];
+    int wallCount = 0;
+    int wallNeeded = 0;
+    for (int t = 0; t < s.triangleCount; ++t) {
+        const Vec3 a = load3(s.nodePosition, s.triangles[3 * t]);
+        const Vec3 b = load3(s.nodePosition, s.triangles[3 * t + 1]);
+        const Vec3 c = load3(s.nodePosition, s.triangles[3 * t + 2]);
+        const double reach = radius + s.skin;
+        if (kernels::squaredNorm(closestPointOnTriangle(x, a, b, c) - x) > reach * reach) continue;
+        ++wallNeeded;
+        if (wallCount < s.maxWalls) wallOut[wallCount++] = carriedSlot(wallOld, wallOldCount, t);
+    }
+    s.wallCount[i] = wallCount;
+    if (wallNeeded > s.maxWalls) atomicMaximum(&s.counters[counterWallOverflow], static_cast<unsigned long long>(wallNeeded));
+    store3(s.referencePosition, i, x);
+}
+
+// ---------------------------------------------------------------------------------------------------
+// Narrow phase and contact law of one candidate.
+// ---------------------------------------------------------------------------------------------------
+struct ContactKinematics {
+    Vec3 velocity;   // of the body's reference point [m/s]
+    Vec3 omega;      // world angular velocity [rad/s]
+    Vec3 centre;     // reference point for the lever arm [m]
+};
+
+struct ContactResult {
+    bool active;
+    double overlap;
+    Vec3 normal;     // A -> B
+    Vec3 point;
+    Vec3 forceOnB;
+};
+
+// Evaluates the contact between cores A and B dilated by radiusA and radiusB, updates the history slot
+// and returns the force on B (−force acts on A). effectiveRadius: Hertz curvature of the dilation
+// (seed002 eq. 2.20: the dilating spheres touch, so R* = r_A r_B / (r_A + r_B); r_A for a flat wall).
+RAILCOSIM_HOST_DEVICE inline ContactResult evaluateContact(const ConvexCore& A, const ConvexCore& B, double radiusA, double radiusB,
+                                                           double effectiveRadius, double effectiveMass, const ContactLawConstants& law,
+                                                           const ContactKinematics& kinA, const ContactKinematics& kinB, double timeStep,
+                                                           double featureTolerance, ContactSlot& slot, unsigned long long* counters) {
+    ContactResult result{false, 0.0, Vec3{0.0, 0.0, 0.0}, Vec3{0.0, 0.0, 0.0}, Vec3{0.0, 0.0, 0.0}};
+    const Vec3 previousNormal{slot.normal[0], slot.normal[1], slot.normal[2]};
+    const bool hasPrevious = kernels::squaredNorm(previousNormal) > 0.5;
+    const Vec3 guess = hasPrevious ? previousNormal : kinB.centre - kinA.centre;
+    const CoreDistance d = coreDistance(A, B, guess, radiusA + radiusB);
+    Vec3 n;
+    double gap;
+    Vec3 midpoint;
+    if (d.beyondCutoff || (!d.intersecting && d.distance > 1e-12 * (radiusA + radiusB))) {
+        if (d.beyondCutoff || d.distance >= radiusA + radiusB) {  // dilated bodies apart: the history is released
+            slot.active = 0;
+            slot.elasticShear[0] = slot.elasticShear[1] = slot.elasticShear[2] = 0.0;
+            slot.overlap = 0.0;
+            return result;
+        }
+        n = (d.pointB - d.pointA) / d.distance;
+        gap = d.distance;
+        midpoint = 0.5 * (d.pointA + d.pointB);
+    } else {
+        // Cores touch or intersect: far beyond the intended overlap (δ ≥ r_A + r_B). Keep the last normal
+        // (or the centre line) and measure the core overlap along it; counted so the user can react.
+        atomicIncrement(&counters[counterCoreOverlap]);
+        n = guess / kernels::norm(guess);
+        gap = -coreOverlapAlong(A, B, n);
+        midpoint = 0.5 * (support(A, n) + support(B, -n));
+    }
+    const double overlap = radiusA + radiusB - gap;  // seed002 eq. 2.5: δ = r_A + r_B − Δ
+    // Mid-plane of the overlapping dilation spheres, measured along n from A's core surface.
+    const double planeHeight = kernels::dot(midpoint, n) + 0.5 * (radiusA - radiusB);
+    const Vec3 fallback = midpoint + (0.5 * (radiusA - radiusB)) * n;
+    // Feature band: a fraction of the smaller positive dilation radius (a flat wall has none).
+    const double bandRadius = radiusB > 0.0 && radiusB < radiusA ? radiusB : radiusA;
+    const Vec3 point = featureTolerance > 0.0 ? contactPatchCentre(A, B, n, planeHeight, fallback, featureTolerance * bandRadius) : fallback;
+
+    const Vec3 velocityA = kinA.velocity + kernels::cross(kinA.omega, point - kinA.centre);
+    const Vec3 velocityB = kinB.velocity + kernels::cross(kinB.omega, point - kinB.centre);
+    const Vec3 relative = velocityB - velocityA;  // of B with respect to A at the contact point
+    const double overlapRate = -kernels::dot(relative, n);
+
+    kernels::HertzMindlinParams params{law.effectiveYoungModulus, law.effectiveShearModulus, effectiveRadius, effectiveMass,
+                                       law.dampingRatio};
+    const double normalForce = kernels::hertzNormalForce(params, overlap, overlapRate);
+    const Vec3 history{slot.elasticShear[0], slot.elasticShear[1], slot.elasticShear[2]};
+    const double previousOverlap = slot.active ? slot.overlap : 0.0;
+    const Vec3 tangentialVelocity = kernels::tangentialPart(relative, n);
+    const kernels::TangentialForceResult tangential = kernels::mindlinTangentialForce(
+        params, slot.active ? history : Vec3{0.0, 0.0, 0.0}, n, overlap, previousOverlap, timeStep * tangentialVelocity,
+        tangentialVelocity, law.friction, normalForce);
+
+    slot.active = 1;
+    slot.elasticShear[0] = tangential.elasticForce.x;
+    slot.elasticShear[1] = tangential.elasticForce.y;
+    slot.elasticShear[2] = tangential.elasticForce.z;
+    slot.normal[0] = n.x;
+    slot.normal[1] = n.y;
+    slot.normal[2] = n.z;
+    slot.overlap = overlap;
+    result.active = true;
+    result.overlap = overlap;
+    result.normal = n;
+    result.point = point;
+    result.forceOnB = normalForce * n + tangential.force;
+    return result;
+}
+
+// Forces of all candidates of stone i: stone pairs (i owns j > i), then wall triangles. One loop with a
+// single evaluateContact call site keeps the device code (and its register demand) to one copy.
+RAILCOSIM_HOST_DEVICE inline void stoneForces(const SystemView& s, int i) {
+    const ShapeData& shapeA = s.shapes[s.shape[i]];
+    const ConvexCore coreA = stoneCore(s, i);
+    const ContactKinematics kinA{load3(s.velocity, i), load3(s.omegaWorld, i), coreA.position};
+    Vec3 forceA{0.0, 0.0, 0.0}, torqueA{0.0, 0.0, 0.0};
+    int active = 0;
+    const int pairCount = s.pairCount[i];
+    const int total = pairCount + s.wallCount[i];
+    // One flat region of the surface split into several coplanar triangles must act once, not once per
+    // triangle: a contact with the same normal and overlap as an accepted one is a duplicate (active = 2).
+    constexpr int maxAccepted = 4;
+    Vec3 acceptedNormal[maxAccepted];
+    double acceptedOverlap[maxAccepted];
+    int acceptedCount = 0;
+    for (int k = 0; k < total; ++k) {
+        const bool wall = k >= pairCount;
+        const long long index = wall ? static_cast<long long>(i) * s.maxWalls + (k - pairCount) : static_cast<long long>(i) * s.maxPairs + k;
+        ContactSlot slot = wall ? s.wallSlots[index] : s.pairSlots[index];
+        const int partner = slot.partner;
+        ConvexCore coreB;
+        ContactKinematics kinB;
+        double radiusB, effectiveRadius, effectiveMass;
+        if (!wall) {
+            const ShapeData& shapeB = s.shapes[s.shape[partner]];
+            const Vec3 xB = load3(s.position, partner);
+            const double reach = shapeA.boundingRadius + shapeB.boundingRadius;
+            if (kernels::squaredNorm(xB - coreA.position) >= reach * reach) {  // bounding spheres apart
+                if (slot.active) {
+                    slot.active = 0;
+                    slot.elasticShear[0] = slot.elasticShear[1] = slot.elasticShear[2] = 0.0;
+                    s.pairSlots[index] = slot;
+                }
+                continue;
+            }
+            coreB = stoneCore(s, partner);
+            kinB = ContactKinematics{load3(s.velocity, partner), load3(s.omegaWorld, partner), xB};
+            radiusB = shapeB.dilationRadius;
+            effectiveRadius = kernels::effectiveRadius(shapeA.dilationRadius, shapeB.dilationRadius);
+            effectiveMass = kernels::effectiveMass(shapeA.mass, shapeB.mass);
+        } else {
+            const int n0 = s.triangles[3 * partner], n1 = s.triangles[3 * partner + 1], n2 = s.triangles[3 * partner + 2];
+            const Vec3 a = load3(s.nodePosition, n0), b = load3(s.nodePosition, n1), c = load3(s.nodePosition, n2);
+            // The triangle as a 3-vertex core read straight from the node array through its connectivity.
+            coreB = ConvexCore{s.nodePosition, 3, Rotation{{1, 0, 0, 0, 1, 0, 0, 0, 1}}, Vec3{0.0, 0.0, 0.0}, s.triangles + 3 * partner};
+            // Barycentric velocity of the triangle at its point nearest to the stone centre; a flat rigid wall
+            // has no rotation, so its lever arm is irrelevant.
+            const Vec3 nearest = closestPointOnTriangle(coreA.position, a, b, c);
+            const Vec3 e0 = b - a, e1 = c - a, e2 = nearest - a;
+            const double d00 = kernels::dot(e0, e0), d01 = kernels::dot(e0, e1), d11 = kernels::dot(e1, e1);
+            const double d20 = kernels::dot(e2, e0), d21 = kernels::dot(e2, e1);
+            const double denominator = d00 * d11 - d01 * d01;
+            const double wb = denominator > 0.0 ? (d11 * d20 - d01 * d21) / denominator : 0.0;
+            const double wc = denominator > 0.0 ? (d00 * d21 - d01 * d20) / denominator : 0.0;
+            const Vec3 velocity = (1.0 - wb - wc) * load3(s.nodeVelocity, n0) + wb * load3(s.nodeVelocity, n1) + wc * load3(s.nodeVelocity, n2);
+            kinB = ContactKinematics{velocity, Vec3{0.0, 0.0, 0.0}, nearest};
+            // The wall is rigid and flat (no dilation): R* = r_A, m* = m_A.
+            radiusB = 0.0;
+            effectiveRadius = shapeA.dilationRadius;
+            effectiveMass = shapeA.mass;
+        }
+        const ContactResult c = evaluateContact(coreA, coreB, shapeA.dilationRadius, radiusB, effectiveRadius, effectiveMass,
+                                                wall ? s.wallLaw : s.stoneLaw, kinA, kinB, s.timeStep, s.featureTolerance, slot, s.counters);
+        if (c.active && wall) {
+            bool duplicate = false;
+            for (int m = 0; m < acceptedCount; ++m) {
+                duplicate = duplicate || (kernels::dot(acceptedNormal[m], c.normal) > 1.0 - 1e-9 &&
+                                          std::fabs(acceptedOverlap[m] - c.overlap) <= 1e-9 * shapeA.dilationRadius);
+            }
+            if (duplicate) {
+                slot.active = 2;
+                s.wallSlots[index] = slot;
+                continue;
+            }
+            if (acceptedCount < maxAccepted) {
+                acceptedNormal[acceptedCount] = c.normal;
+                acceptedOverlap[acceptedCount] = c.overlap;
+                ++acceptedCount;
+            }
+        }
+        if (wall) {
+            s.wallSlots[index] = slot;
+        } else {
+            s.pairSlots[index] = slot;
+        }
+        if (!c.active) continue;
+        ++active;
+        ContactOutput& out = wall ? s.wallOutput[index] : s.pairOutput[index];
+        store3(out.point, 0, c.point);
+        store3(out.force, 0, c.forceOnB);
+        forceA -= c.forceOnB;
+        torqueA -= kernels::cross(c.point - coreA.position, c.forceOnB);
+        if (wall) {
+            atomicAccumulate3(s.triangleForceSum, partner, c.forceOnB);
+            const double magnitude = kernels::norm(c.forceOnB);
+            atomicAccumulate3(s.trianglePointSum, partner, magnitude * c.point);
+            atomicAccumulate(s.triangleWeightSum + partner, magnitude);
+        } else {
+            atomicAccumulate3(s.force, partner, c.forceOnB);
+            atomicAccumulate3(s.torque, partner, kernels::cross(c.point - kinB.centre, c.forceOnB));
+        }
+    }
+    atomicAccumulate3(s.force, i, forceA);
+    atomicAccumulate3(s.torque, i, torqueA);
+    if (active > 0) {
+#if defined(RAILCOSIM_POLYHEDRA_DEVICE_PASS)
+        atomicAdd(&s.counters[counterActive], static_cast<unsigned long long>(active));
+#else
+#pragma omp atomic
+        s.counters[counterActive] += static_cast<unsigned long long>(active);
+#endif
+    }
+}
+
+}  // namespace railcosim::polyhedra

@@ -4,11 +4,13 @@
 
 #include <algorithm>
 #include <cmath>
+#include <string>
 #include <vector>
 
 #include "PolyhedraShapes.hpp"
 #include "PolyhedraStep.hpp"
 #include "PolyhedraSystem.hpp"
+#include "railcosim/Error.hpp"
 
 using namespace railcosim::polyhedra;
 using railcosim::kernels::Vec3;
@@ -51,11 +53,11 @@ ContactResult staticContact(const ConvexCore& a, const ConvexCore& b, double r, 
     ContactSlot slot{1, 0, {0, 0, 0}, {0, 0, 0}, 0.0};
     unsigned long long counters[counterCount] = {0, 0, 0, 0, 0};
     const ContactKinematics rest{Vec3{0, 0, 0}, Vec3{0, 0, 0}, Vec3{0, 0, 0}};
-    ContactKinematics kb = rest;
-    kb.centre = b.position;
-    ContactKinematics ka = rest;
-    ka.centre = a.position;
-    const ContactResult c = evaluateContact(a, b, r, r, 0.5 * r, 1.0, constants, ka, kb, 1e-6, featureTolerance, slot, counters);
+    ContactKinematics kinematicsB = rest;
+    kinematicsB.centre = b.position;
+    ContactKinematics kinematicsA = rest;
+    kinematicsA.centre = a.position;
+    const ContactResult c = evaluateContact(a, b, r, r, 0.5 * r, 1.0, constants, kinematicsA, kinematicsB, 1e-6, featureTolerance, slot, counters);
     BOOST_TEST(counters[counterCoreOverlap] == 0u);
     return c;
 }
@@ -426,4 +428,22 @@ BOOST_AUTO_TEST_CASE(settling_pile_reaches_rest) {
     BOOST_TEST(maxSpeed < 0.005);
     BOOST_TEST(fallbacks == 0);
     BOOST_TEST(dangerous == 0);
+}
+
+// Asking for the CUDA backend where none is usable fails loudly with the reason and the way out; on a
+// machine with a GPU it must actually run on it. Automatic falls back to the CPU reference (logged once).
+BOOST_AUTO_TEST_CASE(cuda_request_without_gpu_is_a_clear_error) {
+    Parameters p = quietParameters(0.5, 0.5);
+    p.backend = Backend::Cuda;
+    try {
+        PolyhedraSystem system(p);
+        BOOST_TEST((system.activeBackend() == Backend::Cuda));
+    } catch (const railcosim::Error& error) {
+        const std::string message = error.what();
+        BOOST_TEST(message.find("CUDA backend was requested") != std::string::npos);
+        BOOST_TEST(message.find("Backend::Cpu") != std::string::npos);
+    }
+    p.backend = Backend::Automatic;
+    PolyhedraSystem automatic(p);
+    BOOST_TEST(!automatic.backendReason().empty());
 }

@@ -14,7 +14,8 @@ namespace railcosim::polyhedra {
 // a device mirror and copies to/from it only when the facade asks.
 struct HostData {
     int stoneCount = 0;
-    std::vector<double> position, velocity, orientation, omegaBody, omegaBodyHalf, omegaWorld;
+    std::vector<double> position, velocity;
+    std::vector<kernels::RotationState> rotation;
     std::vector<double> force, torque, referencePosition;
     std::vector<std::int32_t> shape;
     std::vector<ShapeData> shapes;

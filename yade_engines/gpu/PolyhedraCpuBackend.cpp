@@ -9,7 +9,6 @@ namespace railcosim::polyhedra {
 void HostData::allocate() {
     const std::size_t n = static_cast<std::size_t>(stoneCount);
     auto resize = [](std::vector<double>& a, std::size_t size) { a.resize(size, 0.0); };
-    resize(omegaBodyHalf, 3 * n);
     resize(force, 3 * n);
     resize(torque, 3 * n);
     resize(referencePosition, 3 * n);
@@ -44,10 +43,7 @@ SystemView HostData::view() {
     v.triangleCount = triangleCount();
     v.position = position.data();
     v.velocity = velocity.data();
-    v.orientation = orientation.data();
-    v.omegaBody = omegaBody.data();
-    v.omegaBodyHalf = omegaBodyHalf.data();
-    v.omegaWorld = omegaWorld.data();
+    v.rotation = rotation.data();
     v.force = force.data();
     v.torque = torque.data();
     v.referencePosition = referencePosition.data();

@@ -110,10 +110,7 @@ public:
     void upload(HostData& d) override {
         position_.upload(d.position, stream_);
         velocity_.upload(d.velocity, stream_);
-        orientation_.upload(d.orientation, stream_);
-        omegaBody_.upload(d.omegaBody, stream_);
-        omegaBodyHalf_.upload(d.omegaBodyHalf, stream_);
-        omegaWorld_.upload(d.omegaWorld, stream_);
+        rotation_.upload(d.rotation, stream_);
         force_.upload(d.force, stream_);
         torque_.upload(d.torque, stream_);
         reference_.upload(d.referencePosition, stream_);
@@ -161,10 +158,7 @@ public:
     void download(HostData& d) override {
         position_.download(d.position, stream_);
         velocity_.download(d.velocity, stream_);
-        orientation_.download(d.orientation, stream_);
-        omegaBody_.download(d.omegaBody, stream_);
-        omegaBodyHalf_.download(d.omegaBodyHalf, stream_);
-        omegaWorld_.download(d.omegaWorld, stream_);
+        rotation_.download(d.rotation, stream_);
         force_.download(d.force, stream_);
         torque_.download(d.torque, stream_);
         reference_.download(d.referencePosition, stream_);
@@ -240,10 +234,7 @@ private:
         SystemView v = d.view();  // scalars; pointers replaced by device ones
         v.position = position_.get();
         v.velocity = velocity_.get();
-        v.orientation = orientation_.get();
-        v.omegaBody = omegaBody_.get();
-        v.omegaBodyHalf = omegaBodyHalf_.get();
-        v.omegaWorld = omegaWorld_.get();
+        v.rotation = rotation_.get();
         v.force = force_.get();
         v.torque = torque_.get();
         v.referencePosition = reference_.get();
@@ -324,7 +315,8 @@ private:
     cudaStream_t stream_ = nullptr;
     cudaGraphExec_t graphs_[2] = {nullptr, nullptr};
     int current_ = 0;
-    DeviceArray<double> position_, velocity_, orientation_, omegaBody_, omegaBodyHalf_, omegaWorld_, force_, torque_,
+    DeviceArray<kernels::RotationState> rotation_;
+    DeviceArray<double> position_, velocity_, force_, torque_,
         reference_, vertices_, nodePosition_, nodeVelocity_, triangleForce_, trianglePoint_, triangleWeight_;
     DeviceArray<std::int32_t> shape_, triangles_, pairCount_[2], wallCount_[2], sortedStone_, rawStone_, cellStart_, cellEnd_;
     DeviceArray<ShapeData> shapes_;

@@ -5,6 +5,7 @@
 #include <cstdint>
 
 #include "kernels/HostDevice.hpp"
+#include "kernels/Quaternion.hpp"
 #include "kernels/Vector3.hpp"
 
 // Keeps a large, rarely hot function out of line in device code, where inlining it into the force kernel
@@ -19,44 +20,11 @@ namespace railcosim::polyhedra {
 
 using kernels::Vec3;
 
-// ---------------------------------------------------------------------------------------------------
-// Unit quaternions, convention of Irazábal 2017 §5.3 (seed000 eqs. 5.29–5.39): v_world = q v_body q*.
-// ---------------------------------------------------------------------------------------------------
-struct Quat {
-    double w;
-    double x;
-    double y;
-    double z;
-};
-
-RAILCOSIM_HOST_DEVICE inline Quat multiply(const Quat& p, const Quat& q) {  // eq. 5.34
-    return Quat{p.w * q.w - p.x * q.x - p.y * q.y - p.z * q.z, p.w * q.x + q.w * p.x + p.y * q.z - p.z * q.y,
-                p.w * q.y + q.w * p.y + p.z * q.x - p.x * q.z, p.w * q.z + q.w * p.z + p.x * q.y - p.y * q.x};
-}
-
-RAILCOSIM_HOST_DEVICE inline Quat normalized(const Quat& q) {
-    const double s = 1.0 / std::sqrt(q.w * q.w + q.x * q.x + q.y * q.y + q.z * q.z);
-    return Quat{q.w * s, q.x * s, q.y * s, q.z * s};
-}
-
-// Body -> world, eqs. 5.35–5.36: t = 2 (q × v); v' = v + q0 t + q × t.
-RAILCOSIM_HOST_DEVICE inline Vec3 rotate(const Quat& q, const Vec3& v) {
-    const Vec3 axis{q.x, q.y, q.z};
-    const Vec3 t = 2.0 * kernels::cross(axis, v);
-    return v + q.w * t + kernels::cross(axis, t);
-}
-
-// World -> body (rotation by q*).
-RAILCOSIM_HOST_DEVICE inline Vec3 rotateInverse(const Quat& q, const Vec3& v) { return rotate(Quat{q.w, -q.x, -q.y, -q.z}, v); }
-
-// Incremental rotation for a constant world angular velocity ω over Δt, eq. 5.39.
-RAILCOSIM_HOST_DEVICE inline Quat rotationIncrement(const Vec3& omega, double timeStep) {
-    const double rate = kernels::norm(omega);
-    const double halfAngle = 0.5 * rate * timeStep;
-    if (rate * timeStep < 1e-300) return Quat{1.0, 0.0, 0.0, 0.0};
-    const double s = std::sin(halfAngle) / rate;
-    return Quat{std::cos(halfAngle), omega.x * s, omega.y * s, omega.z * s};
-}
+// Orientation algebra comes from the shared kernels (kernels/Quaternion.hpp): v_world = q v_body q*.
+using Quat = kernels::Quaternion;
+using kernels::normalized;
+using kernels::rotate;
+using kernels::rotateInverse;
 
 // Row-major rotation matrix of q (body -> world); built once per body per contact evaluation.
 struct Rotation {
@@ -615,21 +583,21 @@ RAILCOSIM_HOST_DEVICE RAILCOSIM_POLYHEDRA_NOINLINE inline Vec3 contactPatchCentr
     // Hulls; tiny area tolerance (relative to the feature size squared) merges collinear points.
     Point2 hullA[2 * maxFeatureVertices + 1], hullB[2 * maxFeatureVertices + 1];
     const double scale = tolerance * tolerance * 1e-6;
-    const int nA = convexHull(rawA, countA, hullA, scale);
-    const int nB = convexHull(rawB, countB, hullB, scale);
-    if (nA < 2 || nB < 2) return fallback;  // feature collapsed to a point
+    const int hullSizeA = convexHull(rawA, countA, hullA, scale);
+    const int hullSizeB = convexHull(rawB, countB, hullB, scale);
+    if (hullSizeA < 2 || hullSizeB < 2) return fallback;  // feature collapsed to a point
     Point2 centre;
-    if (nA >= 3 && nB >= 3) {  // face–face
+    if (hullSizeA >= 3 && hullSizeB >= 3) {  // face–face
         Point2 clipped[2 * maxFeatureVertices + 2];
-        const int nC = clipPolygon(hullA, nA, hullB, nB, clipped);
-        if (nC == 0) return fallback;
-        centre = polygonCentroid(clipped, nC);
-    } else if (nA >= 3 || nB >= 3) {  // edge–face: clip the edge by the face
-        const Point2* face = nA >= 3 ? hullA : hullB;
-        const int nFace = nA >= 3 ? nA : nB;
-        const Point2* edge = nA >= 3 ? hullB : hullA;
+        const int clippedSize = clipPolygon(hullA, hullSizeA, hullB, hullSizeB, clipped);
+        if (clippedSize == 0) return fallback;
+        centre = polygonCentroid(clipped, clippedSize);
+    } else if (hullSizeA >= 3 || hullSizeB >= 3) {  // edge–face: clip the edge by the face
+        const Point2* face = hullSizeA >= 3 ? hullA : hullB;
+        const int faceSize = hullSizeA >= 3 ? hullSizeA : hullSizeB;
+        const Point2* edge = hullSizeA >= 3 ? hullB : hullA;
         Point2 p0 = edge[0], p1 = edge[1];
-        if (!clipSegment(p0, p1, face, nFace)) return fallback;
+        if (!clipSegment(p0, p1, face, faceSize)) return fallback;
         centre = Point2{0.5 * (p0.u + p1.u), 0.5 * (p0.v + p1.v)};
     } else {  // edge–edge: parallel edges share an interval, crossed edges meet at the GJK point
         const Point2 a0 = hullA[0], a1 = hullA[1], b0 = hullB[0], b1 = hullB[1];

@@ -7,6 +7,7 @@
 #include "PolyhedraGeometry.hpp"
 #include "kernels/HertzMindlin.hpp"
 #include "kernels/HostDevice.hpp"
+#include "kernels/RotationIntegrators.hpp"
 #include "kernels/Vector3.hpp"
 
 #if defined(__CUDA_ARCH__)
@@ -22,7 +23,6 @@ struct ShapeData {
     double dilationRadius;    // r_d [m]
     double boundingRadius;    // core circumradius + r_d [m]
     double mass;              // [kg]
-    double inverseInertia[3]; // principal [1/(kg m^2)]
     double inertia[3];        // principal [kg m^2]
 };
 
@@ -63,13 +63,10 @@ struct SystemView {
     int stoneCount;
     int nodeCount;
     int triangleCount;
-    // stones (3 doubles per vector, 4 per quaternion w,x,y,z)
+    // stones (3 doubles per vector)
     double* position;
     double* velocity;            // v^n after correct, v^{n+1/2} between predict and correct
-    double* orientation;         // q^n
-    double* omegaBody;           // ω'^n (principal frame); between predict and correct ω'^n + Δt/2 I'^{-1}T'^n
-    double* omegaBodyHalf;       // ω'^{n+1/2}
-    double* omegaWorld;          // world ω used by contacts (ω^{n+1/2} during force evaluation)
+    kernels::RotationState* rotation;  // q, world ω (mid-step between predict and correct) and ZvW scratch
     double* force;
     double* torque;
     double* referencePosition;   // position at the last neighbour rebuild
@@ -118,13 +115,6 @@ RAILCOSIM_HOST_DEVICE inline void store3(double* a, int i, const Vec3& v) {
     a[3 * i + 1] = v.y;
     a[3 * i + 2] = v.z;
 }
-RAILCOSIM_HOST_DEVICE inline Quat loadQuat(const double* a, int i) { return Quat{a[4 * i], a[4 * i + 1], a[4 * i + 2], a[4 * i + 3]}; }
-RAILCOSIM_HOST_DEVICE inline void storeQuat(double* a, int i, const Quat& q) {
-    a[4 * i] = q.w;
-    a[4 * i + 1] = q.x;
-    a[4 * i + 2] = q.y;
-    a[4 * i + 3] = q.z;
-}
 
 // Atomic accumulation: hardware atomics on the device, OpenMP atomics in the CPU reference.
 RAILCOSIM_HOST_DEVICE inline void atomicAccumulate(double* address, double value) {
@@ -165,47 +155,27 @@ RAILCOSIM_HOST_DEVICE inline void atomicIncrement(unsigned long long* address) {
 
 RAILCOSIM_HOST_DEVICE inline ConvexCore stoneCore(const SystemView& s, int i) {
     const ShapeData& shape = s.shapes[s.shape[i]];
-    return ConvexCore{s.shapeVertices + 3 * shape.firstVertex, shape.vertexCount, rotationMatrix(loadQuat(s.orientation, i)),
+    return ConvexCore{s.shapeVertices + 3 * shape.firstVertex, shape.vertexCount, rotationMatrix(s.rotation[i].orientation),
                       load3(s.position, i), nullptr};
 }
 
 // ---------------------------------------------------------------------------------------------------
-// Integration: velocity Verlet for translation, Zhao–van Wachem predictor–corrector for rotation
-// (seed000 §5.5 eqs. 5.47–5.54, split into PREDICT before and CORRECT after the force evaluation as in
-// Kratos; the correction averages old and new torque, see correctStone).
+// Integration: velocity Verlet for translation and the Zhao–van Wachem predictor–corrector for rotation,
+// both from the shared kernels (kernels/RotationIntegrators.hpp, seed000 §5.5 eqs. 5.47–5.55), split into
+// PREDICT before and CORRECT after the force evaluation.
 // ---------------------------------------------------------------------------------------------------
-RAILCOSIM_HOST_DEVICE inline Vec3 eulerAcceleration(const ShapeData& shape, const Vec3& torqueBody, const Vec3& omegaBody) {
-    // ω̇' = I'^{-1} (T' − ω' × I'ω'), eq. 5.49, principal axes.
-    const Vec3 angularMomentum{shape.inertia[0] * omegaBody.x, shape.inertia[1] * omegaBody.y, shape.inertia[2] * omegaBody.z};
-    const Vec3 net = torqueBody - kernels::cross(omegaBody, angularMomentum);
-    return Vec3{net.x * shape.inverseInertia[0], net.y * shape.inverseInertia[1], net.z * shape.inverseInertia[2]};
-}
+RAILCOSIM_HOST_DEVICE inline Vec3 principalInertia(const ShapeData& shape) { return Vec3{shape.inertia[0], shape.inertia[1], shape.inertia[2]}; }
 
 RAILCOSIM_HOST_DEVICE inline void predictStone(const SystemView& s, int i) {
     const ShapeData& shape = s.shapes[s.shape[i]];
     const double dt = s.timeStep;
-    const Vec3 force = load3(s.force, i);
-    const Vec3 acceleration = force / shape.mass + s.gravity;
-    const Vec3 velocityHalf = load3(s.velocity, i) + (0.5 * dt) * acceleration;
-    const Vec3 position = load3(s.position, i) + dt * velocityHalf;
-    store3(s.velocity, i, velocityHalf);
+    Vec3 velocity = load3(s.velocity, i);
+    Vec3 position = load3(s.position, i);
+    kernels::velocityVerletHalfKick(velocity, load3(s.force, i) + shape.mass * s.gravity, shape.mass, dt);
+    kernels::velocityVerletDrift(position, velocity, dt);
+    store3(s.velocity, i, velocity);
     store3(s.position, i, position);
-
-    const Quat q = loadQuat(s.orientation, i);
-    const Vec3 omegaBody = load3(s.omegaBody, i);
-    const Vec3 torqueBody = rotateInverse(q, load3(s.torque, i));                // eq. 5.47
-    const Vec3 alpha = eulerAcceleration(shape, torqueBody, omegaBody);          // eq. 5.49
-    const Vec3 omegaQuarter = omegaBody + (0.25 * dt) * alpha;                    // eq. 5.48
-    const Vec3 omegaBodyHalf = omegaBody + (0.5 * dt) * alpha;
-    const Quat qHalf = normalized(multiply(rotationIncrement(rotate(q, omegaQuarter), 0.5 * dt), q));  // 5.50–5.51
-    const Vec3 omegaHalfWorld = rotate(qHalf, omegaBodyHalf);                    // eq. 5.52
-    const Quat qNew = normalized(multiply(rotationIncrement(omegaHalfWorld, dt), q));  // eq. 5.53
-    storeQuat(s.orientation, i, qNew);
-    store3(s.omegaBodyHalf, i, omegaBodyHalf);
-    store3(s.omegaWorld, i, omegaHalfWorld);
-    // Torque half-kick of the old torque, kept for the correction (omegaBody holds it until correctStone).
-    const Vec3 torqueKick{torqueBody.x * shape.inverseInertia[0], torqueBody.y * shape.inverseInertia[1], torqueBody.z * shape.inverseInertia[2]};
-    store3(s.omegaBody, i, omegaBody + (0.5 * dt) * torqueKick);
+    kernels::zhaoVanWachemPredict(s.rotation[i], principalInertia(shape), load3(s.torque, i), dt);
     // Forces of the next evaluation accumulate from zero.
     store3(s.force, i, Vec3{0.0, 0.0, 0.0});
     store3(s.torque, i, Vec3{0.0, 0.0, 0.0});
@@ -213,26 +183,12 @@ RAILCOSIM_HOST_DEVICE inline void predictStone(const SystemView& s, int i) {
     if (kernels::squaredNorm(moved) > 0.25 * s.skin * s.skin) atomicMaximum(&s.counters[counterDangerous], 1ull);
 }
 
-// Eq. 5.54 with the torque averaged over the step: ω'^{n+1} = ω'^n + Δt I'^{-1}[(T'^n + T'^{n+1})/2 −
-// ω'^{n+1/2} × I'ω'^{n+1/2}], T'^k = q^{k*} T^k q^k. The printed form (new torque only, rotated by
-// q^{n+1/2}) applies T^{n+1} over the whole step: first order in the torque timing, which showed as an
-// energy error ∝ Δt in the dissipation-free collision test; the average makes it second order, as
-// velocity Verlet is for the forces, and is identical for torque-free motion.
 RAILCOSIM_HOST_DEVICE inline void correctStone(const SystemView& s, int i) {
     const ShapeData& shape = s.shapes[s.shape[i]];
-    const double dt = s.timeStep;
-    const Vec3 acceleration = load3(s.force, i) / shape.mass + s.gravity;
-    store3(s.velocity, i, load3(s.velocity, i) + (0.5 * dt) * acceleration);
-    const Quat q = loadQuat(s.orientation, i);
-    const Vec3 omegaBodyHalf = load3(s.omegaBodyHalf, i);
-    const Vec3 torqueBody = rotateInverse(q, load3(s.torque, i));
-    const Vec3 momentum{shape.inertia[0] * omegaBodyHalf.x, shape.inertia[1] * omegaBodyHalf.y, shape.inertia[2] * omegaBodyHalf.z};
-    const Vec3 gyroscopic = kernels::cross(omegaBodyHalf, momentum);
-    const Vec3 change{(0.5 * torqueBody.x - gyroscopic.x) * shape.inverseInertia[0], (0.5 * torqueBody.y - gyroscopic.y) * shape.inverseInertia[1],
-                      (0.5 * torqueBody.z - gyroscopic.z) * shape.inverseInertia[2]};
-    const Vec3 omegaBody = load3(s.omegaBody, i) + dt * change;
-    store3(s.omegaBody, i, omegaBody);
-    store3(s.omegaWorld, i, rotate(q, omegaBody));  // eq. 5.54b
+    Vec3 velocity = load3(s.velocity, i);
+    kernels::velocityVerletHalfKick(velocity, load3(s.force, i) + shape.mass * s.gravity, shape.mass, s.timeStep);
+    store3(s.velocity, i, velocity);
+    kernels::zhaoVanWachemCorrect(s.rotation[i], principalInertia(shape), load3(s.torque, i), s.timeStep);
 }
 
 // Surface nodes move with their prescribed velocity during a coupling window.
@@ -381,12 +337,12 @@ struct ContactResult {
 // (seed002 eq. 2.20: the dilating spheres touch, so R* = r_A r_B / (r_A + r_B); r_A for a flat wall).
 RAILCOSIM_HOST_DEVICE inline ContactResult evaluateContact(const ConvexCore& A, const ConvexCore& B, double radiusA, double radiusB,
                                                            double effectiveRadius, double effectiveMass, const ContactLawConstants& law,
-                                                           const ContactKinematics& kinA, const ContactKinematics& kinB, double timeStep,
+                                                           const ContactKinematics& kinematicsA, const ContactKinematics& kinematicsB, double timeStep,
                                                            double featureTolerance, ContactSlot& slot, unsigned long long* counters) {
     ContactResult result{false, 0.0, Vec3{0.0, 0.0, 0.0}, Vec3{0.0, 0.0, 0.0}, Vec3{0.0, 0.0, 0.0}};
     const Vec3 previousNormal{slot.normal[0], slot.normal[1], slot.normal[2]};
     const bool hasPrevious = kernels::squaredNorm(previousNormal) > 0.5;
-    const Vec3 guess = hasPrevious ? previousNormal : kinB.centre - kinA.centre;
+    const Vec3 guess = hasPrevious ? previousNormal : kinematicsB.centre - kinematicsA.centre;
     const CoreDistance d = coreDistance(A, B, guess, radiusA + radiusB);
     Vec3 n;
     double gap;
@@ -417,8 +373,8 @@ RAILCOSIM_HOST_DEVICE inline ContactResult evaluateContact(const ConvexCore& A, 
     const double bandRadius = radiusB > 0.0 && radiusB < radiusA ? radiusB : radiusA;
     const Vec3 point = featureTolerance > 0.0 ? contactPatchCentre(A, B, n, planeHeight, fallback, featureTolerance * bandRadius) : fallback;
 
-    const Vec3 velocityA = kinA.velocity + kernels::cross(kinA.omega, point - kinA.centre);
-    const Vec3 velocityB = kinB.velocity + kernels::cross(kinB.omega, point - kinB.centre);
+    const Vec3 velocityA = kinematicsA.velocity + kernels::cross(kinematicsA.omega, point - kinematicsA.centre);
+    const Vec3 velocityB = kinematicsB.velocity + kernels::cross(kinematicsB.omega, point - kinematicsB.centre);
     const Vec3 relative = velocityB - velocityA;  // of B with respect to A at the contact point
     const double overlapRate = -kernels::dot(relative, n);
 
@@ -453,7 +409,7 @@ RAILCOSIM_HOST_DEVICE inline ContactResult evaluateContact(const ConvexCore& A, 
 RAILCOSIM_HOST_DEVICE inline void stoneForces(const SystemView& s, int i) {
     const ShapeData& shapeA = s.shapes[s.shape[i]];
     const ConvexCore coreA = stoneCore(s, i);
-    const ContactKinematics kinA{load3(s.velocity, i), load3(s.omegaWorld, i), coreA.position};
+    const ContactKinematics kinematicsA{load3(s.velocity, i), s.rotation[i].angularVelocity, coreA.position};
     Vec3 forceA{0.0, 0.0, 0.0}, torqueA{0.0, 0.0, 0.0};
     int active = 0;
     const int pairCount = s.pairCount[i];
@@ -470,7 +426,7 @@ RAILCOSIM_HOST_DEVICE inline void stoneForces(const SystemView& s, int i) {
         ContactSlot slot = wall ? s.wallSlots[index] : s.pairSlots[index];
         const int partner = slot.partner;
         ConvexCore coreB;
-        ContactKinematics kinB;
+        ContactKinematics kinematicsB;
         double radiusB, effectiveRadius, effectiveMass;
         if (!wall) {
             const ShapeData& shapeB = s.shapes[s.shape[partner]];
@@ -485,7 +441,7 @@ RAILCOSIM_HOST_DEVICE inline void stoneForces(const SystemView& s, int i) {
                 continue;
             }
             coreB = stoneCore(s, partner);
-            kinB = ContactKinematics{load3(s.velocity, partner), load3(s.omegaWorld, partner), xB};
+            kinematicsB = ContactKinematics{load3(s.velocity, partner), s.rotation[partner].angularVelocity, xB};
             radiusB = shapeB.dilationRadius;
             effectiveRadius = kernels::effectiveRadius(shapeA.dilationRadius, shapeB.dilationRadius);
             effectiveMass = kernels::effectiveMass(shapeA.mass, shapeB.mass);
@@ -504,14 +460,14 @@ RAILCOSIM_HOST_DEVICE inline void stoneForces(const SystemView& s, int i) {
             const double wb = denominator > 0.0 ? (d11 * d20 - d01 * d21) / denominator : 0.0;
             const double wc = denominator > 0.0 ? (d00 * d21 - d01 * d20) / denominator : 0.0;
             const Vec3 velocity = (1.0 - wb - wc) * load3(s.nodeVelocity, n0) + wb * load3(s.nodeVelocity, n1) + wc * load3(s.nodeVelocity, n2);
-            kinB = ContactKinematics{velocity, Vec3{0.0, 0.0, 0.0}, nearest};
+            kinematicsB = ContactKinematics{velocity, Vec3{0.0, 0.0, 0.0}, nearest};
             // The wall is rigid and flat (no dilation): R* = r_A, m* = m_A.
             radiusB = 0.0;
             effectiveRadius = shapeA.dilationRadius;
             effectiveMass = shapeA.mass;
         }
         const ContactResult c = evaluateContact(coreA, coreB, shapeA.dilationRadius, radiusB, effectiveRadius, effectiveMass,
-                                                wall ? s.wallLaw : s.stoneLaw, kinA, kinB, s.timeStep, s.featureTolerance, slot, s.counters);
+                                                wall ? s.wallLaw : s.stoneLaw, kinematicsA, kinematicsB, s.timeStep, s.featureTolerance, slot, s.counters);
         if (c.active && wall) {
             bool duplicate = false;
             for (int m = 0; m < acceptedCount; ++m) {
@@ -548,7 +504,7 @@ RAILCOSIM_HOST_DEVICE inline void stoneForces(const SystemView& s, int i) {
             atomicAccumulate(s.triangleWeightSum + partner, magnitude);
         } else {
             atomicAccumulate3(s.force, partner, c.forceOnB);
-            atomicAccumulate3(s.torque, partner, kernels::cross(c.point - kinB.centre, c.forceOnB));
+            atomicAccumulate3(s.torque, partner, kernels::cross(c.point - kinematicsB.centre, c.forceOnB));
         }
     }
     atomicAccumulate3(s.force, i, forceA);

@@ -293,10 +293,7 @@ int PolyhedraSystem::addShape(const ShapeTemplate& shape) {
     data.dilationRadius = r;
     data.boundingRadius = props.circumradius;
     data.mass = props.mass;
-    for (int k = 0; k < 3; ++k) {
-        data.inertia[k] = principal[k];
-        data.inverseInertia[k] = 1.0 / principal[k];
-    }
+    for (int k = 0; k < 3; ++k) data.inertia[k] = principal[k];
     m.data.shapeVertices.insert(m.data.shapeVertices.end(), principalTemplate.vertices.begin(), principalTemplate.vertices.end());
     m.data.shapes.push_back(data);
     m.properties.push_back(props);
@@ -320,11 +317,9 @@ int PolyhedraSystem::addStone(int shape, const std::array<double, 3>& position, 
     Quat q = normalized(Quat{orientation[0], orientation[1], orientation[2], orientation[3]});
     d.position.insert(d.position.end(), position.begin(), position.end());
     d.velocity.insert(d.velocity.end(), velocity.begin(), velocity.end());
-    d.orientation.insert(d.orientation.end(), {q.w, q.x, q.y, q.z});
-    const Vec3 omega{angularVelocity[0], angularVelocity[1], angularVelocity[2]};
-    const Vec3 body = rotateInverse(q, omega);
-    d.omegaBody.insert(d.omegaBody.end(), {body.x, body.y, body.z});
-    d.omegaWorld.insert(d.omegaWorld.end(), {omega.x, omega.y, omega.z});
+    const ShapeData& data = d.shapes[shape];
+    d.rotation.push_back(kernels::makeRotationState(q, Vec3{angularVelocity[0], angularVelocity[1], angularVelocity[2]},
+                                                    Vec3{data.inertia[0], data.inertia[1], data.inertia[2]}));
     d.shape.push_back(shape);
     ++d.stoneCount;
     return d.stoneCount - 1;
@@ -412,7 +407,6 @@ void PolyhedraSystem::step(int steps) {
     }
     m.lastSteps = steps;
     m.time += steps * d.timeStep;
-    // (time accumulates with the Δt in force during each call)
 }
 
 std::size_t PolyhedraSystem::stoneCount() const { return static_cast<std::size_t>(implementation_->data.stoneCount); }
@@ -432,11 +426,19 @@ std::vector<double> PolyhedraSystem::velocities() const {
 }
 std::vector<double> PolyhedraSystem::orientations() const {
     implementation_->sync();
-    return implementation_->data.orientation;
+    std::vector<double> result;
+    result.reserve(4 * implementation_->data.rotation.size());
+    for (const kernels::RotationState& r : implementation_->data.rotation)
+        result.insert(result.end(), {r.orientation.w, r.orientation.x, r.orientation.y, r.orientation.z});
+    return result;
 }
 std::vector<double> PolyhedraSystem::angularVelocities() const {
     implementation_->sync();
-    return implementation_->data.omegaWorld;
+    std::vector<double> result;
+    result.reserve(3 * implementation_->data.rotation.size());
+    for (const kernels::RotationState& r : implementation_->data.rotation)
+        result.insert(result.end(), {r.angularVelocity.x, r.angularVelocity.y, r.angularVelocity.z});
+    return result;
 }
 std::vector<double> PolyhedraSystem::forces() const {
     implementation_->sync();
@@ -457,11 +459,11 @@ void PolyhedraSystem::setState(const std::vector<double>& positions, const std::
     m.sync();
     d.position = positions;
     d.velocity = velocities;
-    d.omegaWorld = angularVelocities;
     for (std::size_t i = 0; i < n; ++i) {
-        const Quat q = normalized(loadQuat(orientations.data(), static_cast<int>(i)));
-        storeQuat(d.orientation.data(), static_cast<int>(i), q);
-        store3(d.omegaBody.data(), static_cast<int>(i), rotateInverse(q, load3(angularVelocities.data(), static_cast<int>(i))));
+        const Quat q{orientations[4 * i], orientations[4 * i + 1], orientations[4 * i + 2], orientations[4 * i + 3]};
+        const ShapeData& data = d.shapes[d.shape[i]];
+        d.rotation[i] = kernels::makeRotationState(q, load3(angularVelocities.data(), static_cast<int>(i)),
+                                                   Vec3{data.inertia[0], data.inertia[1], data.inertia[2]});
     }
     d.forcesValid = false;
     if (m.started) m.backend->upload(d);

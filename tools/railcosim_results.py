@@ -43,8 +43,8 @@ def plot_history(path, title, panels):
     fig, axes = plt.subplots(len(panels), 1, figsize=(8, 3.2 * len(panels)), sharex=True, squeeze=False)
     for ax, panel in zip(axes[:, 0], panels):
         ax.plot(panel["x"], panel["y"], label=panel["label"], lw=1.2)
-        for value, label in panel.get("lines", []):
-            ax.axhline(value, ls="--", lw=1.0, color=None, label=label)
+        for k, (value, label) in enumerate(panel.get("lines", [])):
+            ax.axhline(value, ls="--", lw=1.0, color=f"C{k + 1}", label=label)
         ax.set_ylabel(panel["ylabel"])
         ax.grid(alpha=0.3)
         ax.legend(loc="best", fontsize=8)

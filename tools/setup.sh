@@ -32,6 +32,23 @@ packages=(
   freefem++ libfreefem++-dev
 )
 
+# with_progress LABEL LOG COMMAND...: runs COMMAND (output appended to LOG) and prints the percentage
+# that make/cmake report, with the elapsed minutes, every 30 s until it ends; returns its status.
+with_progress() {
+  local label=$1 log=$2; shift 2
+  local start=$SECONDS
+  "$@" >> "$log" 2>&1 &
+  local pid=$!
+  while kill -0 "$pid" 2>/dev/null; do
+    local waited=0
+    while [ $waited -lt 30 ] && kill -0 "$pid" 2>/dev/null; do sleep 1; waited=$((waited + 1)); done
+    kill -0 "$pid" 2>/dev/null || break
+    local pct; pct=$(grep -o '^\[ *[0-9]*%\]' "$log" | tail -n1 | tr -d '[] ' || true)
+    say "$label: ${pct:-0%} done, $(( (SECONDS-start)/60 )) min elapsed (log: $log)"
+  done
+  wait "$pid"
+}
+
 install_packages() {
   local missing=()
   for p in "${packages[@]}"; do
@@ -96,16 +113,10 @@ build_yade() {
   (cd "$build" && PATH=$clean_path cmake "$yade_root/src/trunk-${yade_version}" "${yade_cmake_options[@]}" \
       -DPYTHON_EXECUTABLE=/usr/bin/python3 -DCMAKE_INSTALL_PREFIX="$yade_root/prefix" \
       -DCMAKE_CXX_COMPILER_LAUNCHER=ccache > "$log" 2>&1) || die "YADE configure failed; see $log"
-  say "YADE ${yade_version}: compiling with $jobs jobs (about 35 min on 2 cores; progress below, log: $log)"
+  say "YADE ${yade_version}: compiling with $jobs jobs (about 35 min on 2 idle cores; log: $log)"
   local start=$SECONDS
-  (cd "$build" && PATH=$clean_path make -j"$jobs" >> "$log" 2>&1) &
-  local pid=$!
-  while kill -0 "$pid" 2>/dev/null; do
-    sleep 30
-    local pct; pct=$(grep -o '^\[ *[0-9]*%\]' "$log" | tail -n1 | tr -d '[] ' || true)
-    say "YADE build: ${pct:-0%} done, $(( (SECONDS-start)/60 )) min elapsed"
-  done
-  wait "$pid" || die "YADE build failed; see $log (last lines: $(tail -n 3 "$log" | tr '\n' ' '))"
+  (cd "$build" && PATH=$clean_path with_progress "YADE build" "$log" make -j"$jobs") \
+    || die "YADE build failed; see $log (last lines: $(tail -n 3 "$log" | tr '\n' ' '))"
   (cd "$build" && PATH=$clean_path make install >> "$log" 2>&1) || die "YADE install failed; see $log"
   touch "$stamp"
   say "YADE ${yade_version}: built in $(( (SECONDS-start)/60 )) min"
@@ -113,6 +124,8 @@ build_yade() {
 
 build_railcosim() {
   local build=${RAILCOSIM_BUILD:-$here/build}
+  # Paths relative to the checkout in ccache's hashes: a fresh clone elsewhere reuses the cache.
+  export CCACHE_BASEDIR=$here CCACHE_NOHASHDIR=1
   local cuda=${RAILCOSIM_WITH_CUDA:-}
   if [ -z "$cuda" ]; then
     if [ -x /usr/local/cuda/bin/nvcc ]; then cuda=ON; else cuda=OFF; fi
@@ -125,7 +138,8 @@ build_railcosim() {
       -DRAILCOSIM_WITH_YADE=ON -DRAILCOSIM_YADE_ROOT="$yade_root" -DRAILCOSIM_WITH_FREEFEM=ON \
       -DRAILCOSIM_WITH_CUDA="$cuda" > "$build/configure.log" 2>&1 \
     || { tail -n 30 "$build/configure.log" >&2; die "CMake configure failed; full log: $build/configure.log"; }
-  PATH=/usr/local/cuda/bin:$clean_path cmake --build "$build" -j "$jobs" > "$build/build.log" 2>&1 \
+  : > "$build/build.log"
+  PATH=/usr/local/cuda/bin:$clean_path with_progress "railcosim build" "$build/build.log" cmake --build "$build" -j "$jobs" \
     || { grep -E "error|Error" "$build/build.log" | head -n 20 >&2; die "build failed; full log: $build/build.log"; }
   touch "$build/.railcosim-built"
   say "railcosim: built in $((SECONDS-start)) s"

@@ -63,7 +63,7 @@ def r2(make, dt):
     O.bodies.append(body)
     body.state.blockedDOFs = "xyz"
     O.engines = [yade.ForceResetter(),
-                 yade.PyRunner(iterPeriod=1, command="O.forces.addT(0, Vector3(0, 1e5 * math.exp(O.time), 0))"),
+                 yade.PyRunner(iterPeriod=1, initRun=True, command="O.forces.addT(0, Vector3(0, 1e5 * math.exp(O.time), 0))"),
                  make()]
     O.dt = dt
     wall, cpu = timed_run(int(round(1.0 / dt)))

@@ -20,7 +20,12 @@ failures = []
 def check(label, value, limit, integrator):
     passed = value < limit
     ours = integrator.startswith("QuaternionIntegrator")
-    verdict = ("ok" if passed else "FAIL") if ours else ("peer, within limit" if passed else "peer, outside limit")
+    if "direct" in integrator:
+        verdict = "comparison only" + ("" if passed else ", outside limit as expected")
+    elif ours:
+        verdict = "ok" if passed else "FAIL"
+    else:
+        verdict = "peer, within limit" if passed else "peer, outside limit"
     print("%-36s %-36s %.3e (limit %.1e) %s" % (label, integrator, value, limit, verdict))
     if not passed and ours and "direct" not in integrator:
         failures.append(label + " " + integrator)
@@ -68,7 +73,7 @@ def r2_sphere_torque(name, make):
     O.bodies.append(body)
     body.state.blockedDOFs = "xyz"
     O.engines = [yade.ForceResetter(),
-                 yade.PyRunner(iterPeriod=1, command="O.forces.addT(0, Vector3(0, 1e5 * math.exp(O.time), 0))"),
+                 yade.PyRunner(iterPeriod=1, initRun=True, command="O.forces.addT(0, Vector3(0, 1e5 * math.exp(O.time), 0))"),
                  make()]
     O.dt = 1e-4
     O.run(10000, True)
@@ -78,7 +83,8 @@ def r2_sphere_torque(name, make):
     q = body.state.ori
     error = min(math.sqrt(sum((q[i] - exact[i]) ** 2 for i in range(4))),
                 math.sqrt(sum((q[i] + exact[i]) ** 2 for i in range(4))))
-    # Kernel estimate 6e-8 for velocity Verlet; YADE's leapfrog is the same scheme: 1e-6 as in the kernel test.
+    # Velocity Verlet (our engine): kernel estimate 6e-8, bound 1e-6 as in the kernel test. NewtonIntegrator's
+    # leapfrog starts with a full kick, ω^{1/2} = Δt T^0/I, a first-order offset of ½Δt·θ'(1 s) ≈ 3e-3 rad.
     check("R2 |q - q_exact| at 1 s", error, 1e-6, name)
 
 

@@ -45,10 +45,24 @@ def _top_pressure(p):
     return p["particle_mass_kg"] * GRAVITY / (p["beam_length"] * p["beam_width"])
 
 
+def _final_span(p, times):
+    return times >= times[-1] - p["average_s"]
+
+
 def reference_runs(p, out):
-    """The same FreeFEM beam under the equivalent uniform pressure, lumped to the same surface nodes."""
-    return [("direct_fem", ["FreeFem++", "-nw", "-v", "0", _solver(), "-mode", "static", "-pressure", str(_top_pressure(p)),
-                            "-load", "lumped", "-out", os.path.join(out, "direct_fem")] + _beam_arguments(p))]
+    """Static solves of the same FreeFEM beam: (1) under the equivalent uniform pressure lumped to the
+    surface nodes (the case's reference); (2) under the coupled run's own nodal forces averaged over the
+    final span, which isolates what the coupling adds from how unevenly the particles load the beam."""
+    series = np.load(os.path.join(out, "dem_timeseries.npz"))
+    mean_forces = series["nodal_forces"][_final_span(p, series["time"])].mean(axis=0).ravel()
+    forces_file = os.path.join(out, "mean_nodal_forces.txt")
+    with open(forces_file, "w") as f:
+        f.write(f"{mean_forces.size}\n" + "\n".join(f"{v:.12e}" for v in mean_forces) + "\n")
+    static = ["FreeFem++", "-nw", "-v", "0", _solver(), "-mode", "static"]
+    return [("direct_fem", static + ["-pressure", str(_top_pressure(p)), "-load", "lumped",
+                                     "-out", os.path.join(out, "direct_fem")] + _beam_arguments(p)),
+            ("same_load_fem", static + ["-nodalForces", forces_file, "-out", os.path.join(out, "same_load_fem")]
+             + _beam_arguments(p))]
 
 
 def closed_form_deflection(p):
@@ -68,15 +82,17 @@ def closed_form_deflection(p):
 def postprocess(p, out):
     fem = results.read_json(os.path.join(out, "fem", "fem_summary.json"))
     direct = results.read_json(os.path.join(out, "direct_fem", "fem_summary.json"))
+    same_load = results.read_json(os.path.join(out, "same_load_fem", "fem_summary.json"))
     dem = results.read_json(os.path.join(out, "dem_info.json"))
     monitor = results.read_csv_columns(os.path.join(out, "fem", "fem_monitor.csv"))
     series = dict(np.load(os.path.join(out, "dem_timeseries.npz")))
 
     coupled = -fem["averageMonitorDisplacement"][2]       # downward deflection, positive
     direct_deflection = -direct["finalMonitorDisplacement"][2]
+    same_load_deflection = -same_load["finalMonitorDisplacement"][2]
     closed = closed_form_deflection(p)
     weight = dem["total_particle_mass_kg"] * GRAVITY
-    window = series["time"] >= series["time"][-1] - p["average_s"]
+    window = _final_span(p, series["time"])
     interface_force = -float(np.mean(series["interface_force"][window, 2]))
 
     results.write_timeseries(os.path.join(out, "timeseries.h5"), {
@@ -90,17 +106,24 @@ def postprocess(p, out):
         panels=[
             {"x": monitor["time"], "y": [-u * 1e6 for u in monitor["uz"]], "label": "coupled FEM (beam axis, mid-span)",
              "ylabel": "deflection [µm]",
-             "lines": [(direct_deflection * 1e6, "direct FEM, same load"), (closed * 1e6, "closed form (Timoshenko)")]},
+             "lines": [(direct_deflection * 1e6, "direct FEM, uniform equivalent load"),
+                       (same_load_deflection * 1e6, "static FEM, coupled run's mean nodal forces"),
+                       (closed * 1e6, "closed form (Timoshenko)")]},
             {"x": series["time"], "y": -series["interface_force"][:, 2], "label": "interface force from DEM",
              "ylabel": "force on beam [N]", "lines": [(weight, "particle weight")]},
         ])
 
     error_direct = abs(coupled - direct_deflection) / direct_deflection
+    error_same_load = abs(coupled - same_load_deflection) / same_load_deflection
     error_closed = abs(direct_deflection - closed) / closed
     force_error = abs(interface_force - weight) / weight
     checks = [
-        # The seed reached 0.38 % (51 kg) and 0.85 % (72 kg); the issue asks for 1 %.
-        {"name": "coupled vs direct FEM deflection", "value": error_direct, "limit": 0.01},
+        # The seed reached 0.38 % (51 kg) and 0.85 % (72 kg); the case asks for 1 %. The smoke bed (2.5 spheres
+        # across the width) loads the end stations visibly less than a uniform pressure: its limit is larger.
+        {"name": "coupled vs direct FEM deflection", "value": error_direct, "limit": p["deflection_tolerance"]},
+        # Same nodal forces, static: what remains is residual motion of the bed and beam over the final span.
+        {"name": "coupled vs static FEM under the coupled run's mean nodal forces", "value": error_same_load,
+         "limit": 0.01},
         # P2 20x2x2 is 3 % below the closed form (mesh study in freefem_scripts/README.md); 5 % is the target.
         {"name": "direct FEM vs closed form", "value": error_closed, "limit": 0.05},
         # At rest the beam carries the whole weight (frictionless walls); 1 % leaves room for residual motion.
@@ -116,13 +139,17 @@ def postprocess(p, out):
                      "bridge_time_per_exchange_s": (dem["bridge_time_s"] + fem.get("bridgeSeconds", 0.0))
                      / max(1, dem["exchanges"])},
         "metrics": {"midspan_deflection_m": coupled, "direct_fem_deflection_m": direct_deflection,
+                    "same_load_fem_deflection_m": same_load_deflection,
+                    "interface_work_dem_j": dem["interface_work_dem_j"], "interface_work_fem_j": dem["interface_work_fem_j"],
+                    "particles_below_surface": dem["particles_below_surface"],
                     "closed_form_deflection_m": closed, "total_particle_mass_kg": dem["total_particle_mass_kg"],
                     "interface_force_n": interface_force, "particle_weight_n": weight,
                     "final_kinetic_energy_j": dem["final_kinetic_energy_j"]},
         "reference": {"direct_fem_deflection_m": direct_deflection, "closed_form_deflection_m": closed,
                       "seed002_table4_2": {"51kg": {"pure_fem_m": 7.06e-7, "coupled_m": 7.04e-7},
                                            "72kg": {"pure_fem_m": 9.97e-7, "coupled_m": 9.89e-7}}},
-        "relative_error": {"coupled_vs_direct_fem": error_direct, "direct_fem_vs_closed_form": error_closed,
+        "relative_error": {"coupled_vs_direct_fem": error_direct, "coupled_vs_same_load_fem": error_same_load,
+                           "direct_fem_vs_closed_form": error_closed,
                            "interface_force_vs_weight": force_error},
         "checks": checks,
     }

@@ -28,26 +28,28 @@ beam_mat = O.materials.append(FrictMat(young=p["particle_young"], poisson=0.3, d
 for axis, position, sense in ((0, 0.0, 1), (0, L, -1), (1, 0.0, 1), (1, W, -1)):
     O.bodies.append(utils.wall(position=position, axis=axis, sense=sense, material=wall_mat))
 
-# 3. A loose lattice of spheres above the beam, jittered; density fitted so the total mass is exact.
+# 3. Layers of spheres above the beam, each layer shifted by half a spacing so that its spheres sit in
+#    the hollows of the one below (a stacked square lattice would stand in precarious columns that keep
+#    collapsing long after the bed looks settled); jittered; density fitted so the total mass is exact.
 rng = random.Random(p["seed"])
 sphere_volume = 4.0 / 3.0 * math.pi * R ** 3
 count = max(1, round(p["particle_mass_kg"] / (p["particle_density"] * sphere_volume)))
-spacing = 2.0 * R * 1.08
-along, across = max(1, int((L - 2 * R) / spacing) + 1), max(1, int((W - 2 * R) / spacing) + 1)
-dx = (L - 2 * R) / max(1, along - 1) if along > 1 else 0.0
-dy = (W - 2 * R) / max(1, across - 1) if across > 1 else 0.0
-jitter = 0.03 * R
+spacing = 2.0 * R * 1.05
+layer_height = spacing * math.sqrt(0.5)  # centre rise of a sphere resting in a square hollow
+jitter = 0.05 * R
 centres = []
 layer = 0
 while len(centres) < count:
-    z = H + R * 1.05 + layer * spacing
-    for i in range(along):
-        for j in range(across):
-            if len(centres) == count:
-                break
-            x = R + i * dx + rng.uniform(-jitter, jitter) * (0 < i < along - 1)
-            y = R + j * dy + rng.uniform(-jitter, jitter) * (0 < j < across - 1)
-            centres.append((x, y, z + rng.uniform(0, jitter)))
+    shift = 0.5 * spacing * (layer % 2)
+    z = H + R * 1.02 + layer * layer_height
+    x = R * 1.01 + shift
+    while x <= L - R * 1.01 and len(centres) < count:
+        y = R * 1.01 + shift
+        while y <= W - R * 1.01 and len(centres) < count:
+            dx, dy = (rng.uniform(-jitter, jitter) for _ in range(2))
+            centres.append((min(max(x + dx, R), L - R), min(max(y + dy, R), W - R), z))
+            y += spacing
+        x += spacing
     layer += 1
 density = p["particle_mass_kg"] / (count * sphere_volume)
 O.materials[particle_mat].density = density
@@ -56,13 +58,17 @@ total_mass = sum(O.bodies[i].state.mass for i in sphere_ids)
 
 # 4. Engines: the coupling engine sits after the contact loop and before the integrator.
 coupling = FemCouplingEngine(endpoint=endpoint, material=O.materials[beam_mat], scheme=p["scheme"],
-                             averageForces=p["average_forces"], timeout=60.0, label="coupling")
+                             averageForces=p["average_forces"], contactModel=p["contact_model"],
+                             restitution=p["restitution"], timeout=60.0, label="coupling")
 O.engines = [
     ForceResetter(),
     InsertionSortCollider([Bo1_Sphere_Aabb(), Bo1_Facet_Aabb(), Bo1_Wall_Aabb()]),
     InteractionLoop([Ig2_Sphere_Sphere_ScGeom(), Ig2_Facet_Sphere_ScGeom(), Ig2_Wall_Sphere_ScGeom()],
-                    [Ip2_FrictMat_FrictMat_FrictPhys()],
-                    [Law2_ScGeom_FrictPhys_CundallStrack()]),
+                    # Hertz-Mindlin with viscous damping from the restitution coefficient (Thornton 2013):
+                    # the bed comes to rest by dissipation in its contacts, not by numerical damping.
+                    [Ip2_FrictMat_FrictMat_MindlinPhys(en=MatchMaker(algo="val", val=p["restitution"]),
+                                                       es=MatchMaker(algo="val", val=p["restitution"]))],
+                    [Law2_ScGeom_MindlinPhys_Mindlin()]),
     coupling,
     NewtonIntegrator(damping=p["local_damping"], gravity=(0, 0, -9.81)),
 ]
@@ -70,12 +76,19 @@ O.dt = p["dem_dt_safety"] * PWaveTimeStep()
 coupling.connect()  # receives the beam's top surface, inserts its facets, sets O.dt = fem_dt / subcycles
 n = coupling.subcycles
 windows = int(round(p["duration_s"] / coupling.femDt))
-print(f"{count} spheres, {total_mass:.3f} kg, radius {R} m; {len(coupling.facetIds)} facets; "
+print(f"{count} spheres, {total_mass:.3f} kg, radius {R} m; {len(coupling.triangles)} surface triangles "
+      f"({coupling.contactModel} contacts); "
       f"O.dt={O.dt:.3e} s, {n} DEM steps per FEM step, {windows} windows", flush=True)
 
 # 5. One record per window: interface force, kinetic energy, nodal forces and kinematics.
 series = {"time": [], "interface_force": [], "kinetic_energy": [], "nodal_forces": [], "node_positions": [],
-          "node_velocities": []}
+          "node_velocities": [], "particles_below_surface": []}
+
+
+def particles_below_surface():
+    """Spheres whose centre fell below the top face: they passed through the coupled surface."""
+    return sum(1 for i in sphere_ids if O.bodies[i].state.pos[2] < H - R)
+
 wall_start = time.monotonic()
 
 
@@ -86,6 +99,7 @@ def record():
     series["nodal_forces"].append([tuple(f) for f in coupling.nodalForces])
     series["node_positions"].append([tuple(x) for x in coupling.nodePositions])
     series["node_velocities"].append([tuple(v) for v in coupling.nodeVelocities])
+    series["particles_below_surface"].append(particles_below_surface())
     k = len(series["time"])
     if k % max(1, windows // 10) == 0:
         print(f"t={O.time:.4f} s  window {coupling.window}/{windows}  interface Fz={coupling.totalForce[2]:.2f} N "
@@ -105,7 +119,8 @@ np.savez_compressed(os.path.join(out, "dem_timeseries.npz"),
 info = {"steps": O.iter, "dt": O.dt, "particles": count, "total_particle_mass_kg": total_mass,
         "subcycles": n, "exchanges": coupling.exchanges, "bridge_time_s": coupling.bridgeTime,
         "wait_time_s": coupling.waitTime, "wall_time_s": wall, "scheme": coupling.scheme,
-        "final_kinetic_energy_j": utils.kineticEnergy()}
+        "final_kinetic_energy_j": utils.kineticEnergy(), "particles_below_surface": particles_below_surface(),
+        "interface_work_dem_j": coupling.interfaceWorkDem, "interface_work_fem_j": coupling.interfaceWorkFem}
 with open(os.path.join(out, "dem_info.json"), "w") as f:
     json.dump(info, f, indent=2)
 print(f"done: {O.iter} steps in {wall:.1f} s; bridge {coupling.bridgeTime:.3f} s over {coupling.exchanges} exchanges",

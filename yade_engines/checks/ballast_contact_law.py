@@ -1,5 +1,5 @@
 # YADE check of BallastMat/BallastPhys/Law2_ScGeom_BallastPhys_Ballast: restitution, plastic overlap, save/load.
-# Run: ./railcosim yade yade_engines/checks/ballast_contact_law.py   (about 20 s; exit status 0 when all pass)
+# Run: ./railcosim yade yade_engines/checks/ballast_contact_law.py   (a few seconds; exit status 0 when all pass)
 # Oracles: the requested restitution (within 2 %, as the kernel test); the closed-form elasto-plastic
 # Pohrt–Popov overlap δ_p = δ_max − (3F_max/(4E*√R*))^{2/3} and Table 1 of Tolomeo & McDowell (2022).
 import math
@@ -63,7 +63,7 @@ speed = 0.01  # [m/s] → 1e-8 m per step: 7500 steps to the 500 N overlap
 O.bodies[b].state.vel = (-speed, 0, 0)
 peak_force = 0.0
 while peak_force < 500.0:
-    O.run(1, True)
+    O.step()
     interaction = O.interactions[a, b] if O.interactions.has(a, b) else None
     if interaction is not None and interaction.isReal:
         peak_force = interaction.phys.normalForce.norm()
@@ -80,7 +80,7 @@ check(abs(phys.plasticOverlap / 3.60e-5 - 1) < 0.01, f"plastic overlap near 3.60
 O.bodies[b].state.vel = (speed, 0, 0)
 zero_force_overlap = None
 while O.interactions.has(a, b) and O.interactions[a, b].isReal:
-    O.run(1, True)
+    O.step()
     if not (O.interactions.has(a, b) and O.interactions[a, b].isReal):
         break
     i = O.interactions[a, b]

@@ -1,8 +1,9 @@
 # YADE check of BoundedRollingFrictionEngine with the ballast contact law: Irazábal's BROF benchmarks 1 and 2.
-# Run: ./railcosim yade yade_engines/checks/bounded_rolling_friction.py   (about a minute; exit 0 when all pass)
+# Run: ./railcosim yade yade_engines/checks/bounded_rolling_friction.py   (a few seconds; exit 0 when all pass)
 # Oracles: rigid-body solutions of reference/seed000_part1.md §5.3 (Table 5.2 material, R = 0.05 m):
 # flat roll-out stops at t = 0.5097 s, x = 0.18836 m; on a 10° slope η_r = 0.1 rolls back, 0.2 and 0.4 stay
-# with resting rolling torque m g R sin 10°. Tolerances: 2 % (contact compliance, as in the kernel test).
+# at the rigid-body distance (the resting torque m g R sin 10° is asserted in tests/kernels). Tolerances: 2 %
+# (contact compliance, as in the kernel test).
 import math
 import sys
 
@@ -51,7 +52,7 @@ def scene(eta, slope_degrees, rolling_start, damping=0.0):
 wall, ball, mass = scene(0.2, 0.0, False)
 stop_time = stop_x = None
 while O.time < 1.2:
-    O.run(20, True)
+    O.step()
     if stop_time is None and O.bodies[ball].state.vel[0] <= 0:
         stop_time, stop_x = O.time, O.bodies[ball].state.pos[0]
 check(stop_time is not None and abs(stop_time / 0.5097 - 1) < 0.02, f"flat: stops at t = {stop_time} s (0.5097)")
@@ -64,7 +65,7 @@ for eta, should_stay in ((0.1, False), (0.2, True), (0.4, True)):
     wall, ball, mass = scene(eta, 10.0, True)
     top = 0.0
     while O.time < 1.2:
-        O.run(20, True)
+        O.step()
         top = max(top, O.bodies[ball].state.pos[0])
     final = O.bodies[ball].state.pos[0]
     stayed = abs(final - top) < 1e-4
@@ -79,7 +80,7 @@ for eta, should_stay in ((0.1, False), (0.2, True), (0.4, True)):
 # The engine refuses Cundall damping, which would reverse the spins it stops.
 scene(0.2, 0.0, False, damping=0.2)
 try:
-    O.run(1, True)
+    O.step()
     check(False, "NewtonIntegrator(damping=0.2) must be refused")
 except Exception as error:
     check("damping" in str(error), f"Cundall damping refused: {str(error)[:80]}...")

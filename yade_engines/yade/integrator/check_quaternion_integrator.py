@@ -1,4 +1,4 @@
-"""YADE check of QuaternionIntegrator on tests R1–R4 (R3/R4 with clump fibres), with NewtonIntegrator as peer.
+"""YADE check of QuaternionIntegrator: R1–R4 (R3/R4 with clump fibres), kinematic bodies, blocked DOFs; NewtonIntegrator peer.
 
 USAGE:   yade -n -x yade_engines/yade/integrator/check_quaternion_integrator.py [--peer-only]
 OUTPUTS: one line per case (error measures) and exit status 0 when every QuaternionIntegrator case passes;
@@ -151,11 +151,40 @@ def r4_nine_fibres(name, make):
                     [Vector3(0.1 + 0.1 * k, 0.5, 0.5) for k in range(9)], Vector3(1, -1, 0), 0.4)
 
 
+def kinematics_and_blocked_dofs(name, make):
+    """Fixed body with prescribed velocities moves exactly; blocked DOFs stay blocked; gravity acts on free ones."""
+    O.reset()
+    kinematic = utils.sphere((0, 0, 0), 0.1, fixed=True)
+    kinematic.state.vel, kinematic.state.angVel = Vector3(1, 0, 0), Vector3(0, 0, 2)
+    falling = utils.sphere((5, 0, 0), 0.1)
+    held = utils.sphere((10, 0, 0), 0.1)
+    held.state.blockedDOFs = "zXY"  # no vertical motion, rotation about z only
+    held.state.angVel = Vector3(3, 0, 1)  # the blocked x component is kept as prescribed
+    O.bodies.append([kinematic, falling, held])
+    O.engines = [yade.ForceResetter(),
+                 yade.PyRunner(iterPeriod=1, initRun=True, command="O.forces.addT(2, Vector3(0, 0, 1))"), make()]
+    O.engines[-1].gravity = (0, 0, -9.81)
+    O.dt = 1e-3
+    O.run(1000, True)
+    t = O.time
+    # Kinematic: x = v t and a rotation by 2t about z, exact up to round-off of 1000 steps (1e-12).
+    error = (kinematic.state.pos - Vector3(t, 0, 0)).norm()
+    error += (kinematic.state.ori.conjugate() * Quaternion(Vector3(0, 0, 1), 2 * t)).toAxisAngle()[1] % (2 * math.pi)
+    # Free fall from rest: velocity Verlet is exact for constant acceleration, z = −g t²/2.
+    error += abs(falling.state.pos[2] + 0.5 * 9.81 * t * t)
+    # Held: no vertical motion; ω_x kept at 3; ω_z = 1 + T t/I at the half step (I = 2/5 m r²).
+    inertia = held.state.inertia[2]
+    error += abs(held.state.pos[2]) + abs(held.state.angVel[0] - 3)
+    error += abs(held.state.angVel[2] - (1 + (t - 0.5 * O.dt) / inertia)) / (t / inertia)
+    check("kinematic/blocked DOFs (sum of errors)", error, 1e-9, name)
+
+
 for name, make in integrators():
     r1_free_precession(name, make)
     r2_sphere_torque(name, make)
     r3_single_fibre(name, make)
     r4_nine_fibres(name, make)
+    kinematics_and_blocked_dofs(name, make)
 
 if failures:
     print("FAILED: " + "; ".join(failures))

@@ -28,7 +28,7 @@ packages=(
   libboost-all-dev python3-dev python3-numpy libloki-dev python3-mpmath libbz2-dev zlib1g-dev
   python3-ipython python3-matplotlib python3-pygraphviz python3-xlib python3-sphinx python3-tk
   libeigen3-dev python3-future python3-pil
-  libzmq3-dev cppzmq-dev nlohmann-json3-dev libhdf5-dev python3-h5py
+  libzmq3-dev cppzmq-dev python3-h5py python3-scipy
   freefem++ libfreefem++-dev
 )
 

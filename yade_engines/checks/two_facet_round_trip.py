@@ -2,13 +2,14 @@
 # Oracles: the lumped nodal forces add up to the sphere's weight, their centroid lies under the sphere
 # (moment conservation), and the surface comes back displaced by F/k at every node (the stand-in's
 # nodes are independent springs), with the facets following the received node positions.
-# Run: ./railcosim yade yade_engines/checks/two_facet_round_trip.py PATH/TO/railcosim_dummy_fem
+# Run: ./railcosim yade yade_engines/checks/two_facet_round_trip.py PATH/TO/railcosim_dummy_fem [facets|hierarchy]
 import os
 import subprocess
 import sys
 import uuid
 
 dummy_fem = sys.argv[1]
+contact_model = sys.argv[2] if len(sys.argv) > 2 else "facets"
 stiffness = 2.0e5  # N/m per node
 endpoint = f"ipc:///tmp/railcosim-check-{os.getpid()}-{uuid.uuid4().hex[:6]}.sock"
 fem = subprocess.Popen([dummy_fem, "--endpoint", endpoint, "--nx", "2", "--ny", "2", "--spacing", "0.2",
@@ -25,14 +26,16 @@ def check(condition, message):
 radius, centre_xy = 0.02, (0.13, 0.06)
 mat = O.materials.append(FrictMat(young=5e7, poisson=0.3, density=7800, frictionAngle=0.5))
 sphere = O.bodies.append(utils.sphere((centre_xy[0], centre_xy[1], radius * 1.01), radius, material=mat))
-coupling = FemCouplingEngine(endpoint=endpoint, material=O.materials[mat], timeout=30, label="coupling")
+coupling = FemCouplingEngine(endpoint=endpoint, material=O.materials[mat], timeout=30, contactModel=contact_model,
+                             label="coupling")
 O.engines = [ForceResetter(), InsertionSortCollider([Bo1_Sphere_Aabb(), Bo1_Facet_Aabb()]),
              InteractionLoop([Ig2_Facet_Sphere_ScGeom()], [Ip2_FrictMat_FrictMat_FrictPhys()],
                              [Law2_ScGeom_FrictPhys_CundallStrack()]),
              coupling, NewtonIntegrator(damping=0.6, gravity=(0, 0, -9.81))]
 O.dt = 2e-5
 coupling.connect()
-check(len(coupling.facetIds) == 2 and len(coupling.nodePositions) == 4, "two facets on four nodes received")
+check(len(coupling.triangles) == 2 and len(coupling.nodePositions) == 4, "two triangles on four nodes received")
+check(len(coupling.facetIds) == (2 if contact_model == "facets" else 0), f"{len(coupling.facetIds)} facet bodies ({contact_model})")
 check(coupling.subcycles == 10, f"sub-cycling ratio femDt/O.dt = 10 (got {coupling.subcycles})")
 
 # Average over the last windows: the stand-in's springs are undamped, so a small vibration remains.
@@ -64,11 +67,14 @@ for i, (f, x) in enumerate(zip(coupling.nodalForces, coupling.nodePositions)):
     expected = f[2] / stiffness
     check(abs(x[2] - expected) <= 0.05 * weight / stiffness, f"node {i}: z = {x[2]:.3e} m, F/k = {expected:.3e} m")
 # The facets follow the nodes: facet vertex in world frame = node position at the same instant.
-tri = coupling.triangles[0]
-b = O.bodies[coupling.facetIds[0]]
-world = [b.state.pos + b.shape.vertices[j] for j in range(3)]
-gap = max((world[j] - coupling.nodePositions[tri[j]]).norm() for j in range(3))
-check(gap < 1e-9 + 2 * O.dt * max(v.norm() for v in coupling.nodeVelocities), f"facet vertices on the nodes (gap {gap:.2e} m)")
+if contact_model == "facets":
+    tri = coupling.triangles[0]
+    b = O.bodies[coupling.facetIds[0]]
+    world = [b.state.pos + b.shape.vertices[j] for j in range(3)]
+    gap = max((world[j] - coupling.nodePositions[tri[j]]).norm() for j in range(3))
+    check(gap < 1e-9 + 2 * O.dt * max(v.norm() for v in coupling.nodeVelocities), f"facet vertices on the nodes (gap {gap:.2e} m)")
+else:
+    check(coupling.surfaceContacts == 1, f"one hierarchy contact under the sphere (got {coupling.surfaceContacts})")
 check(fem.returncode == 0, f"stand-in FEM exited cleanly (code {fem.returncode})")
 print("two_facet_round_trip:", "FAILED" if failures else "passed", flush=True)
 sys.exit(1 if failures else 0)

@@ -1,6 +1,6 @@
 """YADE check of QuaternionIntegrator: R1–R4 (R3/R4 with clump fibres), kinematic bodies, blocked DOFs; NewtonIntegrator peer.
 
-USAGE:   yade -n -x yade_engines/yade/integrator/check_quaternion_integrator.py [--peer-only]
+USAGE:   ./railcosim yade yade_engines/checks/quaternion_integrator.py [--peer-only]
 OUTPUTS: one line per case (error measures) and exit status 0 when every QuaternionIntegrator case passes;
          --peer-only runs NewtonIntegrator alone (e.g. with Debian's YADE, which lacks the railcosim plugin).
 Oracles and tolerances are those of tests/rotation (kernels): R1 ω'_x = sin 50t, ω'_y = cos 50t (Irazábal

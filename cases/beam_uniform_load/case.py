@@ -135,6 +135,8 @@ def postprocess(p, out):
         "dem": {"steps": dem["steps"], "dt": dem["dt"], "particles": dem["particles"]},
         "fem": {"steps": fem.get("steps"), "dt": fem.get("dt"), "nodes": fem.get("nodes")},
         "coupling": {"scheme": dem["scheme"], "exchanges": dem["exchanges"], "subcycles": dem["subcycles"],
+                     "dem_bridge_time_s": dem["bridge_time_s"], "fem_bridge_time_s": fem.get("bridgeSeconds", 0.0),
+                     "force_mapping_time_s": dem["mapping_time_s"],
                      "bridge_time_s": dem["bridge_time_s"] + fem.get("bridgeSeconds", 0.0),
                      "bridge_time_per_exchange_s": (dem["bridge_time_s"] + fem.get("bridgeSeconds", 0.0))
                      / max(1, dem["exchanges"])},

@@ -37,19 +37,27 @@ count = max(1, round(p["particle_mass_kg"] / (p["particle_density"] * sphere_vol
 spacing = 2.0 * R * 1.05
 layer_height = spacing * math.sqrt(0.5)  # centre rise of a sphere resting in a square hollow
 jitter = 0.05 * R
+
+
+def lattice_line(length, shift):
+    """Centres along one side, centred so that the slack is shared by both walls (a gap at one end only
+    would leave that end of the beam less loaded once the bed has settled)."""
+    n = int((length - 2 * R) / spacing) + 1
+    first = 0.5 * (length - (n - 1) * spacing) + shift
+    return [first + k * spacing for k in range(n) if first + k * spacing <= length - R]
+
+
 centres = []
 layer = 0
 while len(centres) < count:
     shift = 0.5 * spacing * (layer % 2)
     z = H + R * 1.02 + layer * layer_height
-    x = R * 1.01 + shift
-    while x <= L - R * 1.01 and len(centres) < count:
-        y = R * 1.01 + shift
-        while y <= W - R * 1.01 and len(centres) < count:
+    for x in lattice_line(L, shift):
+        for y in lattice_line(W, shift):
+            if len(centres) == count:
+                break
             dx, dy = (rng.uniform(-jitter, jitter) for _ in range(2))
             centres.append((min(max(x + dx, R), L - R), min(max(y + dy, R), W - R), z))
-            y += spacing
-        x += spacing
     layer += 1
 density = p["particle_mass_kg"] / (count * sphere_volume)
 O.materials[particle_mat].density = density
@@ -118,6 +126,7 @@ np.savez_compressed(os.path.join(out, "dem_timeseries.npz"),
                     triangles=np.asarray([tuple(t) for t in coupling.triangles], dtype=int))
 info = {"steps": O.iter, "dt": O.dt, "particles": count, "total_particle_mass_kg": total_mass,
         "subcycles": n, "exchanges": coupling.exchanges, "bridge_time_s": coupling.bridgeTime,
+        "mapping_time_s": coupling.mappingTime,
         "wait_time_s": coupling.waitTime, "wall_time_s": wall, "scheme": coupling.scheme,
         "final_kinetic_energy_j": utils.kineticEnergy(), "particles_below_surface": particles_below_surface(),
         "interface_work_dem_j": coupling.interfaceWorkDem, "interface_work_fem_j": coupling.interfaceWorkFem}

@@ -349,9 +349,9 @@ void FemCouplingEngine::action()
 		// Forces of this step's contact evaluation belong to the configuration at t_i + stepsInWindow*dt.
 		if (useHierarchy()) hierarchyContacts(stepForces);
 		else if (stepsInWindow > 0 && (averageForces || auditEnergy)) {
-			const auto mapping = Clock::now(); // lumping contact forces to nodes is part of the bridge cost
+			const auto mapping = Clock::now();
 			collectForces(stepForces);
-			bridgeTime += secondsSince(mapping);
+			mappingTime += secondsSince(mapping);
 		}
 		if (stepsInWindow > 0 && (averageForces || auditEnergy)) accumulateStep();
 		if (stepsInWindow == subcycles) {

@@ -66,7 +66,8 @@ public:
 		((bool, auditEnergy, true, , "Accumulate the work of the interface forces as seen by each side (:yref:`FemCouplingEngine.interfaceWorkDem`, :yref:`FemCouplingEngine.interfaceWorkFem`)."))
 		((Real, interfaceWorkDem, 0, Attr::readonly, "Work done by the particles on the structure, integrated on the DEM side over every DEM step: sum of nodal force . nodal velocity * dt [J]."))
 		((Real, interfaceWorkFem, 0, Attr::readonly, "Work of the forces the FEM received, along the FEM's nodal displacements over each window: sum of F_sent . (P_end - P_start) [J]."))
-		((Real, bridgeTime, 0, Attr::readonly, "Time spent inside the bridge (encoding, transfer, force lumping) [s], excluding waits for the FEM solver."))
+		((Real, bridgeTime, 0, Attr::readonly, "Time spent in the exchanges (encoding, ZeroMQ transfer, decoding) [s], excluding waits for the FEM solver."))
+		((Real, mappingTime, 0, Attr::readonly, "Time spent lumping facet contact forces to the nodes [s] (every DEM step when averaging or auditing energy, else once per window)."))
 		((Real, waitTime, 0, Attr::readonly, "Time spent waiting for the FEM solver [s]."))
 		((bool, connected, false, Attr::readonly, "Whether the handshake with the FEM participant is done."))
 		, /* ctor */

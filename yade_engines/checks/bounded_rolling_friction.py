@@ -1,5 +1,5 @@
 # YADE check of BoundedRollingFrictionEngine with the ballast contact law: Irazábal's BROF benchmarks 1 and 2.
-# Run: ./railcosim yade yade_engines/checks/bounded_rolling_friction.py   (a few seconds; exit 0 when all pass)
+# Run: ./railcosim yade yade_engines/checks/bounded_rolling_friction.py [newton|quaternion]   (a few seconds; exit 0 when all pass)
 # Oracles: rigid-body solutions of reference/seed000_part1.md §5.3 (Table 5.2 material, R = 0.05 m):
 # flat roll-out stops at t = 0.5097 s, x = 0.18836 m; on a 10° slope η_r = 0.1 rolls back, 0.2 and 0.4 stay
 # at the rigid-body distance (the resting torque m g R sin 10° is asserted in tests/kernels). Tolerances: 2 %
@@ -20,6 +20,14 @@ def check(condition, message):
 
 RADIUS = 0.05
 G = 9.81
+# "newton" (YADE's stock NewtonIntegrator) or "quaternion" (railcosim's QuaternionIntegrator, ZvW scheme)
+INTEGRATOR = sys.argv[1] if len(sys.argv) > 1 else "newton"
+
+
+def integrator(damping, gravity):
+    if INTEGRATOR == "quaternion":
+        return QuaternionIntegrator(scheme="zhaoVanWachem", damping=damping, gravity=gravity)
+    return NewtonIntegrator(damping=damping, gravity=gravity)
 
 
 def scene(eta, slope_degrees, rolling_start, damping=0.0):
@@ -42,7 +50,7 @@ def scene(eta, slope_degrees, rolling_start, damping=0.0):
         InteractionLoop([Ig2_Sphere_Sphere_ScGeom(), Ig2_Wall_Sphere_ScGeom()],
                         [Ip2_BallastMat_BallastMat_BallastPhys()], [Law2_ScGeom_BallastPhys_Ballast()]),
         BoundedRollingFrictionEngine(label="brof"),
-        NewtonIntegrator(damping=damping, gravity=(-G * math.sin(beta), 0, -G * math.cos(beta))),
+        integrator(damping, (-G * math.sin(beta), 0, -G * math.cos(beta))),
     ]
     O.dt = 5e-5
     return wall, ball, mass

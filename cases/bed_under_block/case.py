@@ -1,0 +1,66 @@
+"""Case bed_under_block: solver commands and the load transfer check (see README.md)."""
+import os
+
+import numpy as np
+
+import railcosim_results as results
+
+
+def fem_command(p, endpoint, out):
+    L, W, H = p["block_length"], p["block_width"], p["block_height"]
+    solver = os.path.join(os.environ["RAILCOSIM_ROOT"], "freefem_scripts", "solvers", "box_elastodynamics.edp")
+    return ["FreeFem++", "-nw", "-v", "0", solver, "-mode", "coupled", "-endpoint", endpoint, "-scheme", p["scheme"],
+            "-dt", str(p["fem_dt"]), "-Lx", str(L), "-Ly", str(W), "-Lz", str(H),
+            "-nx", str(p["block_elements"]), "-ny", str(max(1, p["block_elements"] // 2)), "-nz", "1", "-order", "2",
+            "-E", str(p["block_young"]), "-nu", str(p["block_poisson"]), "-rho", str(p["block_density"]),
+            "-clamped", "", "-coupled", "5", "-extraPressure", str(p["load_pressure"]), "-extraFace", "6",
+            "-rayleighMass", str(p["rayleigh_mass"]), "-monitor", f"{L / 2},{W / 2},{H}",
+            "-averageSteps", str(max(1, int(round(p["average_s"] / p["fem_dt"])))), "-progressEvery", "200",
+            "-out", os.path.join(out, "fem")]
+
+
+def dem_command(p, endpoint, out):
+    return [os.path.join(os.environ["RAILCOSIM_ROOT"], "railcosim"), "yade", os.path.join(p["case_dir"], "dem.py"),
+            os.path.join(out, "parameters.json"), endpoint, out]
+
+
+def reference_runs(p, out):
+    return []
+
+
+def postprocess(p, out):
+    dem = results.read_json(os.path.join(out, "dem_info.json"))
+    fem = results.read_json(os.path.join(out, "fem", "fem_summary.json"))
+    monitor = results.read_csv_columns(os.path.join(out, "fem", "fem_monitor.csv"))
+    series = dict(np.load(os.path.join(out, "dem_timeseries.npz")))
+    final = series["time"] >= series["time"][-1] - p["average_s"]
+    load = dem["load_n"]
+    block_force = float(np.mean(series["interface_force"][final, 2]))  # upward on the block
+    force_error = abs(block_force - load) / load
+    results.write_timeseries(os.path.join(out, "timeseries.h5"), {"dem": series, "fem": monitor})
+    results.plot_history(os.path.join(out, "load_transfer.png"), title="Loaded block on a sphere bed", panels=[
+        {"x": series["time"], "y": series["interface_force"][:, 2], "label": "force of the bed on the block",
+         "ylabel": "force [N]", "lines": [(load, "applied load")]},
+        {"x": monitor["time"], "y": [-u * 1e3 for u in monitor["uz"]], "label": "block top settlement",
+         "ylabel": "settlement [mm]", "lines": []},
+    ])
+    checks = [
+        # At rest the bed carries the applied load (frictionless side walls); 5 % is the stability criterion
+        # of the stability maps: unstable couplings depart from it by far more.
+        {"name": "force of the bed on the block vs applied load", "value": force_error, "limit": 0.05},
+    ]
+    for c in checks:
+        c["passed"] = bool(c["value"] <= c["limit"])
+    return {
+        "dem": {"steps": dem["steps"], "dt": dem["dt"], "particles": dem["particles"]},
+        "fem": {"steps": fem.get("steps"), "dt": fem.get("dt"), "nodes": fem.get("nodes")},
+        "coupling": {"scheme": dem["scheme"], "exchanges": dem["exchanges"], "subcycles": dem["subcycles"],
+                     "bridge_time_s": dem["bridge_time_s"] + fem.get("bridgeSeconds", 0.0)},
+        "metrics": {"load_n": load, "block_force_n": block_force,
+                    "settlement_m": -float(fem["averageMonitorDisplacement"][2]),
+                    "interface_work_dem_j": dem["interface_work_dem_j"], "interface_work_fem_j": dem["interface_work_fem_j"],
+                    "final_kinetic_energy_j": dem["final_kinetic_energy_j"]},
+        "reference": {"load_n": load},
+        "relative_error": {"interface_force_vs_weight": force_error},
+        "checks": checks,
+    }

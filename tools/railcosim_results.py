@@ -6,6 +6,31 @@ import os
 import numpy as np
 
 
+def box_solver():
+    """Path of the FreeFEM box elastodynamics solver used by the cases."""
+    return os.path.join(os.environ["RAILCOSIM_ROOT"], "freefem_scripts", "solvers", "box_elastodynamics.edp")
+
+
+def standard_dem_command(p, endpoint, out):
+    """The case's dem.py run by YADE with the railcosim engines: dem.py PARAMETERS.json ENDPOINT OUTDIR."""
+    return [os.path.join(os.environ["RAILCOSIM_ROOT"], "railcosim"), "yade", os.path.join(p["case_dir"], "dem.py"),
+            os.path.join(out, "parameters.json"), endpoint, out]
+
+
+def participant_summary(dem, fem):
+    """The run-contract fields 'dem', 'fem' and 'coupling' of summary.json from dem_info.json and
+    fem_summary.json (bridge time = encoding + transfer on both sides; force lumping listed apart)."""
+    bridge = dem["bridge_time_s"] + fem.get("bridgeSeconds", 0.0)
+    return {
+        "dem": {"steps": dem["steps"], "dt": dem["dt"], "particles": dem["particles"]},
+        "fem": {"steps": fem.get("steps"), "dt": fem.get("dt"), "nodes": fem.get("nodes")},
+        "coupling": {"scheme": dem["scheme"], "exchanges": dem["exchanges"], "subcycles": dem["subcycles"],
+                     "dem_bridge_time_s": dem["bridge_time_s"], "fem_bridge_time_s": fem.get("bridgeSeconds", 0.0),
+                     "force_mapping_time_s": dem.get("mapping_time_s", 0.0), "bridge_time_s": bridge,
+                     "bridge_time_per_exchange_s": bridge / max(1, dem["exchanges"])},
+    }
+
+
 def read_json(path):
     if not os.path.isfile(path):
         raise FileNotFoundError(f"expected result file {path} is missing; the solver that writes it did not finish")

@@ -5,9 +5,10 @@ Usage: railcosim run cases/NAME [--smoke] [--out DIR] [--force] [--set key=value
 
 A case folder holds case.toml (parameters, with a [smoke] table of overrides) and case.py, which defines
   fem_command(params, endpoint, out) -> argv list      the FreeFEM participant
-  dem_command(params, endpoint, out) -> argv list      the YADE participant
-  reference_runs(params, out) -> [(name, argv), ...]   solver-only runs the result is compared with
-  postprocess(params, out) -> dict                     metrics, reference, relative_error, checks, timeseries
+  dem_command(params, endpoint, out) -> argv list      the YADE participant (default: the folder's dem.py)
+  reference_runs(params, out) -> [(name, argv), ...]   solver-only runs to compare with (default: none)
+  postprocess(params, out) -> dict                     metrics, reference, relative_error, checks
+Each check is {name, value, limit} and passes when value <= limit; the runner marks it.
 """
 import argparse
 import importlib.util
@@ -21,6 +22,8 @@ import threading
 import time
 import tomllib
 import uuid
+
+import railcosim_results as results
 
 # After one solver fails, how long the other may take to notice (the bridge reports a lost peer within a
 # few seconds) before it is stopped.
@@ -185,8 +188,9 @@ def main(argv):
     status, error = "ok", None
     solvers = []
     try:
+        dem_command = getattr(case, "dem_command", results.standard_dem_command)
         solvers = [Solver("fem", case.fem_command(params, endpoint, out), out, env),
-                   Solver("dem", case.dem_command(params, endpoint, out), out, env)]
+                   Solver("dem", dem_command(params, endpoint, out), out, env)]
         codes = run_pair(solvers)
         bad = {k: v for k, v in codes.items() if v != 0}
         if bad:
@@ -205,9 +209,11 @@ def main(argv):
     summary = {"case": name, "status": status, "smoke": args.smoke, "wall_time_s": round(coupled_wall, 3),
                "parameters": params}
     if status == "ok":
-        for ref_name, ref_argv in case.reference_runs(params, out):
+        for ref_name, ref_argv in getattr(case, "reference_runs", lambda p, o: [])(params, out):
             run_reference(ref_name, ref_argv, out, env)
         summary.update(case.postprocess(params, out))
+        for check in summary.get("checks", []):
+            check["passed"] = bool(check["value"] <= check["limit"])
     else:
         summary["error"] = error
     summary["total_wall_time_s"] = round(time.monotonic() - start, 3)

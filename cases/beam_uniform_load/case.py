@@ -9,10 +9,6 @@ import railcosim_results as results
 GRAVITY = 9.81
 
 
-def _root():
-    return os.environ["RAILCOSIM_ROOT"]
-
-
 def _beam_arguments(p):
     return ["-Lx", str(p["beam_length"]), "-Ly", str(p["beam_width"]), "-Lz", str(p["beam_height"]),
             "-nx", str(p["elements_x"]), "-ny", str(p["elements_y"]), "-nz", str(p["elements_z"]),
@@ -21,24 +17,16 @@ def _beam_arguments(p):
             "-monitor", f"{p['beam_length'] / 2},{p['beam_width'] / 2},{p['beam_height'] / 2}"]
 
 
-def _solver():
-    return os.path.join(_root(), "freefem_scripts", "solvers", "box_elastodynamics.edp")
-
-
 def _average_steps(p):
     return max(1, int(round(p["average_s"] / p["fem_dt"])))
 
 
 def fem_command(p, endpoint, out):
-    return (["FreeFem++", "-nw", "-v", "0", _solver(), "-mode", "coupled", "-endpoint", endpoint, "-scheme", p["scheme"],
+    return (["FreeFem++", "-nw", "-v", "0", results.box_solver(), "-mode", "coupled", "-endpoint", endpoint, "-scheme", p["scheme"],
              "-dt", str(p["fem_dt"]), "-rayleighMass", str(p["rayleigh_mass"]),
              "-averageSteps", str(_average_steps(p)), "-progressEvery", "100", "-out", os.path.join(out, "fem")]
             + _beam_arguments(p))
 
-
-def dem_command(p, endpoint, out):
-    return [os.path.join(_root(), "railcosim"), "yade", os.path.join(p["case_dir"], "dem.py"),
-            os.path.join(out, "parameters.json"), endpoint, out]
 
 
 def _top_pressure(p):
@@ -58,7 +46,7 @@ def reference_runs(p, out):
     forces_file = os.path.join(out, "mean_nodal_forces.txt")
     with open(forces_file, "w") as f:
         f.write(f"{mean_forces.size}\n" + "\n".join(f"{v:.12e}" for v in mean_forces) + "\n")
-    static = ["FreeFem++", "-nw", "-v", "0", _solver(), "-mode", "static"]
+    static = ["FreeFem++", "-nw", "-v", "0", results.box_solver(), "-mode", "static"]
     return [("direct_fem", static + ["-pressure", str(_top_pressure(p)), "-load", "lumped",
                                      "-out", os.path.join(out, "direct_fem")] + _beam_arguments(p)),
             ("same_load_fem", static + ["-nodalForces", forces_file, "-out", os.path.join(out, "same_load_fem")]
@@ -129,17 +117,8 @@ def postprocess(p, out):
         # At rest the beam carries the whole weight (frictionless walls); 1 % leaves room for residual motion.
         {"name": "interface force vs particle weight", "value": force_error, "limit": 0.01},
     ]
-    for c in checks:
-        c["passed"] = bool(c["value"] <= c["limit"])
     return {
-        "dem": {"steps": dem["steps"], "dt": dem["dt"], "particles": dem["particles"]},
-        "fem": {"steps": fem.get("steps"), "dt": fem.get("dt"), "nodes": fem.get("nodes")},
-        "coupling": {"scheme": dem["scheme"], "exchanges": dem["exchanges"], "subcycles": dem["subcycles"],
-                     "dem_bridge_time_s": dem["bridge_time_s"], "fem_bridge_time_s": fem.get("bridgeSeconds", 0.0),
-                     "force_mapping_time_s": dem["mapping_time_s"],
-                     "bridge_time_s": dem["bridge_time_s"] + fem.get("bridgeSeconds", 0.0),
-                     "bridge_time_per_exchange_s": (dem["bridge_time_s"] + fem.get("bridgeSeconds", 0.0))
-                     / max(1, dem["exchanges"])},
+        **results.participant_summary(dem, fem),
         "metrics": {"midspan_deflection_m": coupled, "direct_fem_deflection_m": direct_deflection,
                     "same_load_fem_deflection_m": same_load_deflection,
                     "interface_work_dem_j": dem["interface_work_dem_j"], "interface_work_fem_j": dem["interface_work_fem_j"],

@@ -8,8 +8,7 @@ import railcosim_results as results
 
 def fem_command(p, endpoint, out):
     L, W, H = p["block_length"], p["block_width"], p["block_height"]
-    solver = os.path.join(os.environ["RAILCOSIM_ROOT"], "freefem_scripts", "solvers", "box_elastodynamics.edp")
-    return ["FreeFem++", "-nw", "-v", "0", solver, "-mode", "coupled", "-endpoint", endpoint, "-scheme", p["scheme"],
+    return ["FreeFem++", "-nw", "-v", "0", results.box_solver(), "-mode", "coupled", "-endpoint", endpoint, "-scheme", p["scheme"],
             "-dt", str(p["fem_dt"]), "-Lx", str(L), "-Ly", str(W), "-Lz", str(H),
             "-nx", str(p["block_elements"]), "-ny", str(max(1, p["block_elements"] // 2)), "-nz", "1", "-order", "2",
             "-E", str(p["block_young"]), "-nu", str(p["block_poisson"]), "-rho", str(p["block_density"]),
@@ -19,13 +18,6 @@ def fem_command(p, endpoint, out):
             "-out", os.path.join(out, "fem")]
 
 
-def dem_command(p, endpoint, out):
-    return [os.path.join(os.environ["RAILCOSIM_ROOT"], "railcosim"), "yade", os.path.join(p["case_dir"], "dem.py"),
-            os.path.join(out, "parameters.json"), endpoint, out]
-
-
-def reference_runs(p, out):
-    return []
 
 
 def postprocess(p, out):
@@ -49,13 +41,8 @@ def postprocess(p, out):
         # of the stability maps: unstable couplings depart from it by far more.
         {"name": "force of the bed on the block vs applied load", "value": force_error, "limit": 0.05},
     ]
-    for c in checks:
-        c["passed"] = bool(c["value"] <= c["limit"])
     return {
-        "dem": {"steps": dem["steps"], "dt": dem["dt"], "particles": dem["particles"]},
-        "fem": {"steps": fem.get("steps"), "dt": fem.get("dt"), "nodes": fem.get("nodes")},
-        "coupling": {"scheme": dem["scheme"], "exchanges": dem["exchanges"], "subcycles": dem["subcycles"],
-                     "bridge_time_s": dem["bridge_time_s"] + fem.get("bridgeSeconds", 0.0)},
+        **results.participant_summary(dem, fem),
         "metrics": {"load_n": load, "block_force_n": block_force,
                     "settlement_m": -float(fem["averageMonitorDisplacement"][2]),
                     "interface_work_dem_j": dem["interface_work_dem_j"], "interface_work_fem_j": dem["interface_work_fem_j"],

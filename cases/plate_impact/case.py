@@ -6,13 +6,9 @@ import numpy as np
 import railcosim_results as results
 
 
-def _solver():
-    return os.path.join(os.environ["RAILCOSIM_ROOT"], "freefem_scripts", "solvers", "box_elastodynamics.edp")
-
-
 def fem_command(p, endpoint, out):
     L, T, n = p["plate_length"], p["plate_thickness"], p["elements_xy"]
-    return ["FreeFem++", "-nw", "-v", "0", _solver(), "-mode", "coupled", "-endpoint", endpoint,
+    return ["FreeFem++", "-nw", "-v", "0", results.box_solver(), "-mode", "coupled", "-endpoint", endpoint,
             "-scheme", p["scheme"], "-dt", str(p["fem_dt"]), "-Lx", str(L), "-Ly", str(L), "-Lz", str(T),
             "-nx", str(n), "-ny", str(n), "-nz", "1", "-order", "2", "-E", str(p["plate_young"]),
             "-nu", str(p["plate_poisson"]), "-rho", str(p["plate_density"]), "-clamped", "1,2,3,4",
@@ -20,13 +16,6 @@ def fem_command(p, endpoint, out):
             "-progressEvery", "50", "-out", os.path.join(out, "fem")]
 
 
-def dem_command(p, endpoint, out):
-    return [os.path.join(os.environ["RAILCOSIM_ROOT"], "railcosim"), "yade", os.path.join(p["case_dir"], "dem.py"),
-            os.path.join(out, "parameters.json"), endpoint, out]
-
-
-def reference_runs(p, out):
-    return []
 
 
 def postprocess(p, out):
@@ -57,13 +46,8 @@ def postprocess(p, out):
         {"name": "sphere velocity after the impact, downward positive [m/s]",
          "value": -float(series["sphere_velocity_z"][-1]), "limit": 0.0},
     ]
-    for c in checks:
-        c["passed"] = bool(c["value"] <= c["limit"])
     return {
-        "dem": {"steps": dem["steps"], "dt": dem["dt"], "particles": 1},
-        "fem": {"steps": fem.get("steps"), "dt": fem.get("dt"), "nodes": fem.get("nodes")},
-        "coupling": {"scheme": dem["scheme"], "exchanges": dem["exchanges"], "subcycles": dem["subcycles"],
-                     "bridge_time_s": dem["bridge_time_s"] + fem.get("bridgeSeconds", 0.0)},
+        **results.participant_summary(dem, fem),
         "metrics": {"initial_energy_j": initial, "sphere_energy_after_j": sphere_final,
                     "plate_energy_after_j": float(plate[-1]), "rebound_velocity_m_s": float(series["sphere_velocity_z"][-1]),
                     "interface_work_dem_j": dem["interface_work_dem_j"], "interface_work_fem_j": dem["interface_work_fem_j"],

@@ -2,6 +2,7 @@
 #include "DummyCommon.hpp"
 #include "railcosim/Error.hpp"
 
+#include <cstdio>
 #include <cstdlib>
 #include <iostream>
 
@@ -86,6 +87,21 @@ double SpringMass::advance(double& displacement, double& velocity, double force,
   displacement = equilibrium + offset * c + velocity / w * s;
   velocity = -offset * w * s + velocity * c;
   return (force - stiffness * displacement) / mass;
+}
+
+int runReportingErrors(const char* program, const std::function<int()>& body) {
+  try {
+    return body();
+  } catch (const PeerLostError& error) {
+    std::fprintf(stderr, "%s: PEER LOST: %s\n", program, error.what());
+    return 2;
+  } catch (const ProtocolError& error) {
+    std::fprintf(stderr, "%s: PROTOCOL ERROR: %s\n", program, error.what());
+    return 3;
+  } catch (const std::exception& error) {
+    std::fprintf(stderr, "%s: ERROR: %s\n", program, error.what());
+    return 1;
+  }
 }
 
 } // namespace railcosim::dummy

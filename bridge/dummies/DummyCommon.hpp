@@ -4,6 +4,7 @@
 #include "railcosim/InterfaceMesh.hpp"
 
 #include <cmath>
+#include <functional>
 #include <map>
 #include <string>
 #include <vector>
@@ -40,5 +41,9 @@ struct SpringMass {
   /// Advances (u, v) by dt under constant force; returns the acceleration at the end.
   double advance(double& displacement, double& velocity, double force, double dt) const;
 };
+
+/// Runs a stand-in's main body and maps failures to its documented exit status (2 peer lost, 3 protocol
+/// error, 1 anything else), printing "PROGRAM: KIND: message" on stderr.
+int runReportingErrors(const char* program, const std::function<int()>& body);
 
 } // namespace railcosim::dummy

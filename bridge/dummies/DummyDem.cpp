@@ -32,7 +32,7 @@ const char* usage =
 } // namespace
 
 int main(int argc, char** argv) {
-  try {
+  return dummy::runReportingErrors("railcosim_dummy_dem", [&]() -> int {
     const dummy::Options options(argc, argv,
                                  {{"endpoint", "ipc:///tmp/railcosim-dummy.sock"}, {"name", "dem"}, {"windows", "100"},
                                   {"timeout", "60"}, {"heartbeat", "1"}, {"load", "-1000"}, {"scheme", "justInTime"},
@@ -117,14 +117,5 @@ int main(int argc, char** argv) {
                 statistics.waitSeconds * perExchange, maxError[0], maxError[1], maxError[2],
                 check ? "" : " (not checked)");
     return passed ? 0 : 1;
-  } catch (const PeerLostError& error) {
-    std::fprintf(stderr, "railcosim_dummy_dem: PEER LOST: %s\n", error.what());
-    return 2;
-  } catch (const ProtocolError& error) {
-    std::fprintf(stderr, "railcosim_dummy_dem: PROTOCOL ERROR: %s\n", error.what());
-    return 3;
-  } catch (const std::exception& error) {
-    std::fprintf(stderr, "railcosim_dummy_dem: ERROR: %s\n", error.what());
-    return 1;
-  }
+  });
 }

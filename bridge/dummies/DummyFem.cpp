@@ -32,7 +32,7 @@ const char* usage =
 } // namespace
 
 int main(int argc, char** argv) {
-  try {
+  return dummy::runReportingErrors("railcosim_dummy_fem", [&]() -> int {
     const dummy::Options options(argc, argv,
                                  {{"endpoint", "ipc:///tmp/railcosim-dummy.sock"}, {"name", "fem"}, {"windows", "0"},
                                   {"timeout", "60"}, {"heartbeat", "1"}, {"nodes", "100"}, {"nx", "0"}, {"ny", "0"},
@@ -110,14 +110,5 @@ int main(int argc, char** argv) {
                 statistics.encodeSeconds * perExchange, statistics.transferSeconds * perExchange,
                 statistics.waitSeconds * perExchange);
     return 0;
-  } catch (const PeerLostError& error) {
-    std::fprintf(stderr, "railcosim_dummy_fem: PEER LOST: %s\n", error.what());
-    return 2;
-  } catch (const ProtocolError& error) {
-    std::fprintf(stderr, "railcosim_dummy_fem: PROTOCOL ERROR: %s\n", error.what());
-    return 3;
-  } catch (const std::exception& error) {
-    std::fprintf(stderr, "railcosim_dummy_fem: ERROR: %s\n", error.what());
-    return 1;
-  }
+  });
 }

@@ -159,7 +159,8 @@ void FemCouplingEngine::connect()
 
 void FemCouplingEngine::placeSurface(Real tau, bool beforeIntegrator)
 {
-	std::vector<double> positions, velocities;
+	std::vector<double>& positions  = surfacePositions;
+	std::vector<double>& velocities = surfaceVelocities;
 	railcosim::extrapolateSurface(*windowStart, tau, positions, velocities);
 	const size_t nodes = positions.size() / 3;
 	nodePositions.resize(nodes);
@@ -192,10 +193,7 @@ void FemCouplingEngine::placeSurface(Real tau, bool beforeIntegrator)
 void FemCouplingEngine::collectForces(std::vector<double>& nodal) const
 {
 	nodal.assign(3 * nodePositions.size(), 0.0);
-	std::vector<double> positions(3 * nodePositions.size());
-	for (size_t i = 0; i < nodePositions.size(); ++i)
-		for (int k = 0; k < 3; ++k)
-			positions[3 * i + k] = nodePositions[i][k];
+	const std::vector<double>& positions = surfacePositions; // set with nodePositions by placeSurface
 	// Only the facets' own interaction maps are visited: the cost follows the contacts on the surface.
 	for (size_t t = 0; t < facetIds.size(); ++t) {
 		const Body::id_t id = facetIds[t];
@@ -232,14 +230,8 @@ void FemCouplingEngine::hierarchyContacts(std::vector<double>& nodal)
 {
 	namespace k = railcosim::kernels;
 	const size_t        nodes = nodePositions.size();
-	std::vector<double> positions(3 * nodes), velocities(3 * nodes);
-	for (size_t i = 0; i < nodes; ++i)
-		for (int c = 0; c < 3; ++c) {
-			positions[3 * i + c]  = nodePositions[i][c];
-			velocities[3 * i + c] = nodeVelocities[i][c];
-		}
 	nodal.assign(3 * nodes, 0.0);
-	const k::SurfaceMeshView view = topology->view(positions, velocities);
+	const k::SurfaceMeshView view = topology->view(surfacePositions, surfaceVelocities);
 	grid->rebuild(view);
 	const FrictMat& surface        = frictionMaterial(material, "the surface 'material'");
 	const double    surfaceShear   = k::shearModulus(surface.young, surface.poisson);

@@ -93,6 +93,7 @@ private:
 	std::vector<int32_t>                         connectivity;
 	std::vector<double>                          forceSum;     // for averageForces
 	std::vector<double>                          stepForces;   // nodal forces of the current DEM step
+	std::vector<double>                          surfacePositions, surfaceVelocities; // flat copies of nodePositions/nodeVelocities
 	long                                         stepsInWindow = 0;
 	// hierarchy model: surface topology, triangle grid, and per-particle contact history
 	struct ContactHistory;

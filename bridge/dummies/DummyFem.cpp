@@ -24,7 +24,8 @@ const char* usage =
     "  --nodes N        interface size, about N nodes on a square grid (100); or --nx/--ny\n"
     "  --spacing H      node spacing [m] (0.1)\n"
     "  --dt S           coupling window = FEM step [s] (1e-4)\n"
-    "  --scheme X       justInTime | predictive (justInTime)\n"
+    "  --scheme X       justInTime | predictive | implicit (justInTime); implicit repeats a window from its\n"
+    "                   saved start state whenever the DEM side sends another pass over it\n"
     "  --mass M         mass per node [kg] (1);  --stiffness K  spring per node [N/m] (1e6)\n"
     "  --compute-ms T   pretend to compute T ms per window (0)\n"
     "Exit status: 0 success, 2 peer lost, 3 protocol error, 1 other error.";
@@ -68,7 +69,9 @@ int main(int argc, char** argv) {
     participant.initialize(mesh, dt, state);
 
     // One FEM step t_i -> t_i+1 with the vertical nodal forces in appliedForce.
+    std::uint64_t passes = 0;  // FEM solves (the implicit scheme solves a window once per pass)
     auto step = [&](std::uint64_t window) {
+      ++passes;
       if (computeTime.count() > 0) std::this_thread::sleep_for(computeTime);
       for (std::size_t n = 0; n < nodes; ++n) {
         const double acceleration = model.advance(displacement[n], velocity[n], appliedForce[n], dt);
@@ -83,7 +86,26 @@ int main(int argc, char** argv) {
     };
 
     std::uint64_t window = 0;
+    std::vector<double> savedDisplacement, savedVelocity;
     while (maxWindows <= 0 || window < static_cast<std::uint64_t>(maxWindows)) {
+      if (scheme == CouplingScheme::Implicit) {
+        // Iteration 0 opens window i: the last pass of window i-1 is accepted and becomes the saved start.
+        // Iteration k > 0 repeats window i from that start with the DEM's new forces.
+        const auto forces = participant.receiveForces();
+        if (!forces) break;
+        if (forces->iteration == 0) {
+          savedDisplacement = displacement;
+          savedVelocity = velocity;
+        } else {
+          displacement = savedDisplacement;
+          velocity = savedVelocity;
+        }
+        takeForces(*forces);
+        step(forces->window);
+        participant.sendKinematics(forces->window, state);
+        window = forces->window;  // counts windows opened, not passes
+        continue;
+      }
       if (scheme == CouplingScheme::JustInTime) {
         const auto forces = participant.receiveForces();
         if (!forces) break;
@@ -100,12 +122,14 @@ int main(int argc, char** argv) {
       }
       ++window;
     }
+    if (scheme == CouplingScheme::Implicit && passes > 0) ++window;  // the window index of the last pass, as a count
     participant.finalize();
     const BridgeStatistics& statistics = participant.statistics();
     const double perExchange = statistics.exchanges > 0 ? 1e6 / static_cast<double>(statistics.exchanges) : 0.0;
-    std::printf("railcosim_dummy_fem: OK %llu windows, %llu exchanges, %zu nodes, %s, bridge %.1f us/exchange "
+    std::printf("railcosim_dummy_fem: OK %llu windows, %llu FEM solves, %llu exchanges, %zu nodes, %s, bridge %.1f us/exchange "
                 "(encode %.1f + transfer %.1f), wait %.1f us/exchange\n",
-                static_cast<unsigned long long>(window), static_cast<unsigned long long>(statistics.exchanges), nodes,
+                static_cast<unsigned long long>(window), static_cast<unsigned long long>(passes),
+                static_cast<unsigned long long>(statistics.exchanges), nodes,
                 toString(scheme).c_str(), statistics.bridgeSeconds() * perExchange,
                 statistics.encodeSeconds * perExchange, statistics.transferSeconds * perExchange,
                 statistics.waitSeconds * perExchange);

@@ -314,6 +314,11 @@ public:
   }
 
   const std::string& peerScheme() const { return peerScheme_; }
+  /// Whether either side named the implicit scheme (the handshake refused two different names).
+  bool implicitScheme() const {
+    return peerScheme_ == "implicit" ||
+           (!config_.couplingScheme.empty() && parseCouplingScheme(config_.couplingScheme) == CouplingScheme::Implicit);
+  }
 
   protocol::Hello ownHello() const {
     protocol::Hello hello;
@@ -360,6 +365,8 @@ struct FemParticipant::Impl {
   Link link;
   std::uint64_t nextForcesWindow = 0;      // window of the next Forces message expected
   std::uint64_t nextKinematicsWindow = 0;  // window of the next Kinematics message to send
+  std::uint32_t forcesIteration = 0;       // implicit: pass of the forces received last
+  bool kinematicsOwed = false;             // implicit: forces received, their kinematics not sent yet
 };
 
 FemParticipant::FemParticipant(ParticipantConfig config) : impl_(std::make_unique<Impl>(std::move(config))) {}
@@ -396,6 +403,10 @@ std::optional<ForceMessage> FemParticipant::receiveForces() {
   Link& link = impl_->link;
   if (link.peerFinalized()) return std::nullopt;
   link.requireUsable("receiveForces()");
+  if (impl_->kinematicsOwed) {
+    link.fail("receiveForces: the kinematics of window " + std::to_string(impl_->nextForcesWindow - 1) + " (iteration " +
+              std::to_string(impl_->forcesIteration) + ") were not sent yet; the implicit scheme answers every pass");
+  }
   const std::string waitingFor = windowText("forces", impl_->nextForcesWindow);
   auto [frame, header] = link.receive(waitingFor, true);
   if (header.type == protocol::MessageType::Finalize) {
@@ -405,13 +416,23 @@ std::optional<ForceMessage> FemParticipant::receiveForces() {
                             std::to_string(impl_->nextForcesWindow) + " windows");
     return std::nullopt;
   }
-  const std::string expected = "Forces for window " + std::to_string(impl_->nextForcesWindow);
-  if (header.type != protocol::MessageType::Forces || header.window != impl_->nextForcesWindow) {
-    link.unexpected(header, expected);
+  if (link.implicitScheme()) {
+    // Implicit: the next pass over the window just answered, or the first pass of the next window.
+    const std::uint64_t next = impl_->nextForcesWindow;
+    const bool nextWindow = header.window == next && header.iteration == 0;
+    const bool repeat = next > 0 && header.window == next - 1 && header.iteration == impl_->forcesIteration + 1;
+    if (header.type != protocol::MessageType::Forces || !(nextWindow || repeat)) {
+      link.unexpected(header, "Forces for window " + std::to_string(next) + (next > 0 ? " or for window " +
+                                  std::to_string(next - 1) + " (iteration " + std::to_string(impl_->forcesIteration + 1) + ")" : std::string()));
+    }
+  } else if (header.type != protocol::MessageType::Forces || header.window != impl_->nextForcesWindow || header.iteration != 0) {
+    link.unexpected(header, "Forces for window " + std::to_string(impl_->nextForcesWindow));
   }
   ForceMessage message = link.decodeBody(
       [&] { return protocol::decodeForces(header, frame.data(), link.nodeCount()); }, waitingFor);
-  ++impl_->nextForcesWindow;
+  if (message.iteration == 0) ++impl_->nextForcesWindow;
+  impl_->forcesIteration = message.iteration;
+  impl_->kinematicsOwed = link.implicitScheme();
   return message;
 }
 
@@ -422,12 +443,21 @@ void FemParticipant::sendKinematics(std::uint64_t window, const NodalKinematics&
                         std::to_string(window) + " have no receiver");
   }
   link.requireUsable("sendKinematics()");
-  if (window != impl_->nextKinematicsWindow) {
+  std::uint32_t iteration = 0;
+  if (link.implicitScheme()) {
+    // Implicit: kinematics answer the pass whose forces arrived last.
+    if (!impl_->kinematicsOwed || window + 1 != impl_->nextForcesWindow) {
+      link.fail("sendKinematics: window " + std::to_string(window) + " but the implicit scheme answers the forces received last (" +
+                (impl_->nextForcesWindow > 0 && impl_->kinematicsOwed ? "window " + std::to_string(impl_->nextForcesWindow - 1)
+                                                                       : std::string("none pending")) + ")");
+    }
+    iteration = impl_->forcesIteration;
+  } else if (window != impl_->nextKinematicsWindow) {
     link.fail("sendKinematics: window " + std::to_string(window) + " but window " +
               std::to_string(impl_->nextKinematicsWindow) + " is next; windows go 0, 1, 2, ... without gaps");
   }
   // Just-in-time sends kinematics of window i after its forces, predictive one window before them.
-  if (window > impl_->nextForcesWindow) {
+  if (!link.implicitScheme() && window > impl_->nextForcesWindow) {
     link.fail("sendKinematics: window " + std::to_string(window) + " is more than one window ahead of the forces "
               "received so far (" + std::to_string(impl_->nextForcesWindow) + " windows)");
   }
@@ -442,9 +472,10 @@ void FemParticipant::sendKinematics(std::uint64_t window, const NodalKinematics&
               std::to_string(values) + " each (velocities and accelerations may be empty)");
   }
   if (!std::isfinite(kinematics.time)) link.fail("sendKinematics: time is not finite");
-  link.send(link.encode([&](auto buffer) { return protocol::encodeKinematics(window, kinematics, std::move(buffer)); }),
+  link.send(link.encode([&](auto buffer) { return protocol::encodeKinematics(window, kinematics, std::move(buffer), iteration); }),
             windowText("kinematics", window), true);
-  ++impl_->nextKinematicsWindow;
+  impl_->nextKinematicsWindow = window + 1;
+  impl_->kinematicsOwed = false;
 }
 
 void FemParticipant::finalize() { impl_->link.finalizeQuietly(impl_->nextKinematicsWindow); }
@@ -460,6 +491,8 @@ struct DemParticipant::Impl {
   Link link;
   std::uint64_t nextForcesWindow = 0;      // window of the next Forces message to send
   std::uint64_t nextKinematicsWindow = 0;  // window of the next Kinematics message expected
+  std::uint32_t forcesIteration = 0;       // implicit: pass of the forces sent last
+  bool kinematicsAwaited = false;          // implicit: forces sent, their kinematics not received yet
 };
 
 DemParticipant::DemParticipant(ParticipantConfig config) : impl_(std::make_unique<Impl>(std::move(config))) {}
@@ -505,12 +538,29 @@ void DemParticipant::sendForces(const ForceMessage& message) {
     return;
   }
   link.requireUsable("sendForces()");
-  if (message.window != impl_->nextForcesWindow) {
+  const bool implicit = link.implicitScheme();
+  if (implicit) {
+    const std::uint64_t next = impl_->nextForcesWindow;
+    const bool nextWindow = message.window == next && message.iteration == 0;
+    const bool repeat = next > 0 && message.window == next - 1 && message.iteration == impl_->forcesIteration + 1;
+    if (impl_->kinematicsAwaited) {
+      link.fail("sendForces: the kinematics of window " + std::to_string(next - 1) + " (iteration " +
+                std::to_string(impl_->forcesIteration) + ") were not received yet; the implicit scheme alternates");
+    }
+    if (!nextWindow && !repeat) {
+      link.fail("sendForces: window " + std::to_string(message.window) + " iteration " + std::to_string(message.iteration) +
+                "; the implicit scheme continues with window " + std::to_string(next) + " iteration 0" +
+                (next > 0 ? " or repeats window " + std::to_string(next - 1) + " as iteration " +
+                                std::to_string(impl_->forcesIteration + 1) : std::string()));
+    }
+  } else if (message.iteration != 0) {
+    link.fail("sendForces: iteration " + std::to_string(message.iteration) + " but only the implicit scheme repeats windows");
+  } else if (message.window != impl_->nextForcesWindow) {
     link.fail("sendForces: window " + std::to_string(message.window) + " but window " +
               std::to_string(impl_->nextForcesWindow) + " is next; windows go 0, 1, 2, ... without gaps");
   }
   // Just-in-time sends forces of window i before its kinematics, predictive after them.
-  if (message.window > impl_->nextKinematicsWindow) {
+  if (!implicit && message.window > impl_->nextKinematicsWindow) {
     link.fail("sendForces: window " + std::to_string(message.window) + " is more than one window ahead of the "
               "kinematics received so far (" + std::to_string(impl_->nextKinematicsWindow) + " windows)");
   }
@@ -521,13 +571,21 @@ void DemParticipant::sendForces(const ForceMessage& message) {
   }
   if (!std::isfinite(message.time)) link.fail("sendForces: time is not finite");
   link.send(link.encode([&](auto buffer) { return protocol::encodeForces(message, std::move(buffer)); }), windowText("forces", message.window), true);
-  ++impl_->nextForcesWindow;
+  impl_->nextForcesWindow = message.window + 1;
+  impl_->forcesIteration = message.iteration;
+  impl_->kinematicsAwaited = implicit;
 }
 
 NodalKinematics DemParticipant::receiveKinematics(std::uint64_t window) {
   Link& link = impl_->link;
   link.requireUsable("receiveKinematics()");
-  if (window != impl_->nextKinematicsWindow) {
+  const bool implicit = link.implicitScheme();
+  if (implicit) {
+    if (!impl_->kinematicsAwaited || window + 1 != impl_->nextForcesWindow) {
+      link.fail("receiveKinematics: window " + std::to_string(window) + " asked but the implicit scheme answers the forces sent last (" +
+                (impl_->kinematicsAwaited ? "window " + std::to_string(impl_->nextForcesWindow - 1) : std::string("none sent")) + ")");
+    }
+  } else if (window != impl_->nextKinematicsWindow) {
     link.fail("receiveKinematics: window " + std::to_string(window) + " asked but window " +
               std::to_string(impl_->nextKinematicsWindow) + " is next");
   }
@@ -542,12 +600,15 @@ NodalKinematics DemParticipant::receiveKinematics(std::uint64_t window) {
     throw PeerLostError(link.self() + ": " + link.peerLabel() + " finalized the run while this side was waiting for " +
                         waitingFor + "; the FEM side ended early (end time reached or stopped) - check its log");
   }
-  if (header.type != protocol::MessageType::Kinematics || header.window != window) {
-    link.unexpected(header, "Kinematics for window " + std::to_string(window));
+  const std::uint32_t iteration = implicit ? impl_->forcesIteration : 0;
+  if (header.type != protocol::MessageType::Kinematics || header.window != window || header.iteration != iteration) {
+    link.unexpected(header, "Kinematics for window " + std::to_string(window) +
+                                (iteration > 0 ? " (iteration " + std::to_string(iteration) + ")" : std::string()));
   }
   NodalKinematics kinematics = link.decodeBody(
       [&] { return protocol::decodeKinematics(header, frame.data(), link.nodeCount()); }, waitingFor);
-  ++impl_->nextKinematicsWindow;
+  impl_->nextKinematicsWindow = window + 1;
+  impl_->kinematicsAwaited = false;
   return kinematics;
 }
 

@@ -145,7 +145,7 @@ BOOST_AUTO_TEST_CASE(rejects_version_mismatch_naming_both_versions) {
   hello.participantName = "dem";
   hello.role = Role::Dem;
   const auto bytes = encodeHello(hello, 7);
-  expectRejected([&] { decode(bytes); }, {"version", "version 7", "version 1"});
+  expectRejected([&] { decode(bytes); }, {"version", "version 7", "version 2"});
 }
 
 BOOST_AUTO_TEST_CASE(rejects_unknown_type) {
@@ -259,6 +259,19 @@ BOOST_AUTO_TEST_CASE(rejects_reserved_fields_and_foreign_counts) {
   auto bytes = encodeFinalize(0);
   patch<std::uint32_t>(bytes, offsetIteration, 2);
   expectRejected([&] { decode(bytes); }, {"iteration"});
+  // Forces and Kinematics carry the implicit pass number through encode and decode.
+  ForceMessage pass;
+  pass.window = 5;
+  pass.iteration = 3;
+  pass.forces.assign(3, 2.0);
+  const auto passBytes = encodeForces(pass);
+  const Header passHeader = decode(passBytes);
+  BOOST_TEST(passHeader.iteration == 3u);
+  BOOST_TEST(decodeForces(passHeader, passBytes.data(), 1).iteration == 3u);
+  BOOST_TEST(describe(passHeader) == "Forces for window 5 (iteration 3)");
+  NodalKinematics answer;
+  answer.positions.assign(3, 1.0);
+  BOOST_TEST(decode(encodeKinematics(5, answer, {}, 3)).iteration == 3u);
 
   ForceMessage forces;
   forces.forces.assign(3, 1.0);
@@ -294,9 +307,9 @@ BOOST_AUTO_TEST_CASE(rejects_bad_hello_fields) {
   expectRejected([&] { decodeHello(decode(bytes), bytes.data()); }, {"'unitSystem'", "mm-t-s"});
 
   hello.unitSystem = "SI";
-  hello.couplingScheme = "implicit";
+  hello.couplingScheme = "semiImplicit";
   bytes = encodeHello(hello);
-  expectRejected([&] { decodeHello(decode(bytes), bytes.data()); }, {"'couplingScheme'", "implicit"});
+  expectRejected([&] { decodeHello(decode(bytes), bytes.data()); }, {"'couplingScheme'", "semiImplicit"});
 
   hello.couplingScheme = "";
   hello.participantName = "";

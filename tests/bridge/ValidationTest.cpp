@@ -121,8 +121,8 @@ BOOST_AUTO_TEST_CASE(configuration_errors_are_reported_before_any_socket_opens) 
               {"timeoutSeconds"});
   expectError([] { DemParticipant participant(ParticipantConfig{"dem", "tcp://127.0.0.1:5000", 10, -1}); },
               {"heartbeatSeconds"});
-  expectError([] { DemParticipant participant(ParticipantConfig{"dem", "tcp://127.0.0.1:5000", 10, 1, "implicit"}); },
-              {"couplingScheme", "implicit"});
+  expectError([] { DemParticipant participant(ParticipantConfig{"dem", "tcp://127.0.0.1:5000", 10, 1, "monolithic"}); },
+              {"couplingScheme", "monolithic"});
 }
 
 BOOST_AUTO_TEST_CASE(calls_out_of_order_are_errors) {

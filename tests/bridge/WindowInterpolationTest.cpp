@@ -106,10 +106,14 @@ BOOST_AUTO_TEST_CASE(scheme_names) {
   BOOST_TEST(toString(CouplingScheme::JustInTime) == "justInTime");
   BOOST_TEST(toString(CouplingScheme::Predictive) == "predictive");
   BOOST_TEST((parseCouplingScheme(toString(CouplingScheme::Predictive)) == CouplingScheme::Predictive));
+  BOOST_TEST((parseCouplingScheme("Implicit") == CouplingScheme::Implicit));
+  BOOST_TEST(toString(CouplingScheme::Implicit) == "implicit");
   try {
-    parseCouplingScheme("implicit");
+    parseCouplingScheme("semiImplicit");
     BOOST_FAIL("no Error thrown");
   } catch (const Error& error) {
+    // The message names the bad input and the accepted names.
+    BOOST_TEST(std::string(error.what()).find("semiImplicit") != std::string::npos);
     BOOST_TEST(std::string(error.what()).find("implicit") != std::string::npos);
   }
 }

@@ -154,6 +154,43 @@ BOOST_AUTO_TEST_CASE(tcp_just_in_time_dem_first) { runPair(tcpEndpoint(), "justI
 BOOST_AUTO_TEST_CASE(ipc_predictive_dem_first) { runPair(ipcEndpoint(), "predictive", false, 300); }
 BOOST_AUTO_TEST_CASE(tcp_predictive_fem_first) { runPair(tcpEndpoint(), "predictive", true, 300); }
 
+/// Implicit scheme with the particles acting as a stiff spring bed on the surface: the DEM dummy
+/// compares every accepted window with the monolithic solution of the same coupled system (it exits 1
+/// beyond 100 x the convergence tolerance). Returns the DEM dummy's summary line.
+std::string runImplicit(const std::string& contactStiffness, const std::vector<std::string>& iterationOptions, int expectedExit) {
+  const std::string endpoint = ipcEndpoint();
+  Process fem(RAILCOSIM_DUMMY_FEM, {"--endpoint", endpoint, "--timeout", "20", "--scheme", "implicit", "--nodes", "16"});
+  std::vector<std::string> demArguments{"--endpoint", endpoint, "--timeout", "20", "--scheme", "implicit", "--windows", "500",
+                                        "--contact-stiffness", contactStiffness};
+  demArguments.insert(demArguments.end(), iterationOptions.begin(), iterationOptions.end());
+  Process dem(RAILCOSIM_DUMMY_DEM, demArguments);
+  BOOST_TEST(dem.wait(60) == expectedExit);
+  BOOST_TEST(fem.wait(10) == 0);
+  BOOST_TEST_MESSAGE(dem.output() << dem.errors() << fem.output());
+  return dem.output() + dem.errors();
+}
+
+BOOST_AUTO_TEST_CASE(implicit_matches_the_monolithic_solution) {
+  // Spring bed 5e9 N/m per node against 1e6 N/m and 1 kg per node, window 1e-4 s: one fixed-point pass
+  // amplifies the interface error by C KC = 5e9 (1 - cos(1e-4 w)) / 1e6 = 25 (w = 1000 rad/s), so only a
+  // relaxed iteration can converge. Aitken reaches 1e-10 in about 3 passes per window.
+  const std::string out = runImplicit("5e9", {}, 0);
+  BOOST_TEST(contains(out, "railcosim_dummy_dem: OK 500 windows"));
+  BOOST_TEST(contains(out, "0 not converged"));
+  // A soft bed (C KC = 0.025) needs fewer passes than the stiff one.
+  const std::string soft = runImplicit("5e6", {}, 0);
+  BOOST_TEST(contains(soft, "railcosim_dummy_dem: OK 500 windows"));
+}
+
+BOOST_AUTO_TEST_CASE(implicit_without_relaxation_diverges_on_a_stiff_bed_and_says_so) {
+  // ω = 1 without Aitken: the error grows 25x per pass; the DEM side stops at window 0 and reports it.
+  const std::string out = runImplicit("5e9", {"--no-aitken", "--relaxation", "1", "--max-iterations", "20"}, 1);
+  BOOST_TEST(contains(out, "window 0 did not converge within 20 passes"));
+  // The exact constant relaxation ω = 1/(1 + C KC) = 1/26 converges without Aitken.
+  const std::string exact = runImplicit("5e9", {"--no-aitken", "--relaxation", "0.0384615384615"}, 0);
+  BOOST_TEST(contains(exact, "railcosim_dummy_dem: OK 500 windows"));
+}
+
 /// Kills one side with SIGKILL mid-run; the survivor must exit 2 with a clear message in < 10 s.
 void killMidRun(const std::string& endpoint, bool killDem) {
   Process fem(RAILCOSIM_DUMMY_FEM, {"--endpoint", endpoint, "--timeout", "60", "--compute-ms", "2"});

@@ -18,7 +18,7 @@ struct ParticipantConfig {
   std::string endpoint;             // ZeroMQ endpoint, e.g. "ipc:///tmp/railcosim-1234.sock" or "tcp://127.0.0.1:5555"
   double timeoutSeconds = 60.0;     // longest wait for any expected message before PeerLostError
   double heartbeatSeconds = 1.0;    // transport heartbeat: a frozen or dead peer is detected in ~3x this
-  std::string couplingScheme;       // optional "justInTime" | "predictive": announced at the handshake;
+  std::string couplingScheme;       // optional "justInTime" | "predictive" | "implicit": announced at the handshake;
                                     // when both sides name one, a mismatch is refused there
 };
 
@@ -34,6 +34,7 @@ struct InterfaceSetup {
 /// Nodal forces of one coupling window (DEM -> FEM).
 struct ForceMessage {
   std::uint64_t window = 0;         // window index i: forces for the step t_i -> t_i+1
+  std::uint32_t iteration = 0;      // implicit scheme: pass k over window i (0 = first); other schemes: 0
   double time = 0.0;                // s, the time the forces refer to
   std::vector<double> forces;       // N, 3 per interface node
 };
@@ -60,8 +61,11 @@ public:
   /// length and initial kinematics. Throws PeerLostError if no DEM participant answers in time.
   void initialize(const InterfaceMesh& mesh, double femTimeStep, const NodalKinematics& initial);
   /// Next window's forces, or std::nullopt once the DEM side has finalized (run over).
+  /// Implicit scheme: the forces of the next pass over the same window (iteration k+1) or of the
+  /// next window (iteration 0, meaning the last pass converged: keep its state, step on).
   std::optional<ForceMessage> receiveForces();
-  /// Kinematics at the end of window `window` (time t_i+1).
+  /// Kinematics at the end of window `window` (time t_i+1). Implicit scheme: answers the pass
+  /// whose forces were received last (same window, same iteration).
   void sendKinematics(std::uint64_t window, const NodalKinematics& kinematics);
   /// Tells the peer the run ended normally. Idempotent; also called by the destructor.
   void finalize();
@@ -83,8 +87,11 @@ public:
   DemParticipant& operator=(const DemParticipant&) = delete;
 
   InterfaceSetup initialize();
+  /// Implicit scheme: after the kinematics of (window i, iteration k) came back, either send
+  /// (i, k+1) to repeat the window or (i+1, 0) to accept it. Other schemes: iteration 0 only.
   void sendForces(const ForceMessage& message);
-  /// Kinematics for window `window`; throws PeerLostError if the FEM side finalized or vanished.
+  /// Kinematics for window `window` (implicit: of the pass just sent); throws PeerLostError if the
+  /// FEM side finalized or vanished.
   NodalKinematics receiveKinematics(std::uint64_t window);
   void finalize();
   void abort(const std::string& reason);

@@ -16,13 +16,15 @@ CouplingScheme parseCouplingScheme(const std::string& name) {
   }
   if (key == "justintime") return CouplingScheme::JustInTime;
   if (key == "predictive") return CouplingScheme::Predictive;
-  throw Error("coupling scheme '" + name + "' is unknown; use \"justInTime\" or \"predictive\"");
+  if (key == "implicit") return CouplingScheme::Implicit;
+  throw Error("coupling scheme '" + name + "' is unknown; use \"justInTime\", \"predictive\" or \"implicit\"");
 }
 
 std::string toString(CouplingScheme scheme) {
   switch (scheme) {
   case CouplingScheme::JustInTime: return "justInTime";
   case CouplingScheme::Predictive: return "predictive";
+  case CouplingScheme::Implicit: return "implicit";
   }
   return "unknown";
 }

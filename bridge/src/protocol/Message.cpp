@@ -301,7 +301,9 @@ std::string toString(Role role) {
 std::string describe(const Header& header) {
   switch (header.type) {
   case MessageType::Forces:
-  case MessageType::Kinematics: return toString(header.type) + " for window " + std::to_string(header.window);
+  case MessageType::Kinematics:
+    return toString(header.type) + " for window " + std::to_string(header.window) +
+           (header.iteration > 0 ? " (iteration " + std::to_string(header.iteration) + ")" : std::string());
   default: return toString(header.type);
   }
 }
@@ -349,6 +351,7 @@ std::vector<std::uint8_t> encodeForces(const ForceMessage& message, std::vector<
   Header header;
   header.type = MessageType::Forces;
   header.window = message.window;
+  header.iteration = message.iteration;
   header.time = message.time;
   header.nodeCount = message.forces.size() / 3;
   header.payloadBytes = message.forces.size() * sizeof(double);
@@ -361,10 +364,11 @@ std::vector<std::uint8_t> encodeForces(const ForceMessage& message, std::vector<
 }
 
 std::vector<std::uint8_t> encodeKinematics(std::uint64_t window, const NodalKinematics& kinematics,
-                                           std::vector<std::uint8_t> buffer) {
+                                           std::vector<std::uint8_t> buffer, std::uint32_t iteration) {
   Header header;
   header.type = MessageType::Kinematics;
   header.window = window;
+  header.iteration = iteration;
   header.time = kinematics.time;
   header.flags = kinematicsFlags(kinematics);
   header.nodeCount = kinematics.positions.size() / 3;
@@ -436,9 +440,9 @@ Header decodeHeader(const std::uint8_t* data, std::size_t size) {
   header.nodeCount = reader.u64();
   header.triangleCount = reader.u64();
   header.payloadBytes = reader.u64();
-  if (header.iteration != 0) {
+  if (header.iteration != 0 && header.type != MessageType::Forces && header.type != MessageType::Kinematics) {
     text << describe(header) << ": field 'iteration' is " << header.iteration
-         << "; protocol version " << protocolVersion << " has no implicit coupling, so it must be 0";
+         << "; only Forces and Kinematics carry an implicit-coupling iteration, other messages need 0";
     throw ProtocolError(text.str());
   }
   requireFiniteScalar(header.time, describe(header), "time");
@@ -497,9 +501,10 @@ Hello decodeHello(const Header& header, const std::uint8_t* data) {
   for (unsigned char c : hello.participantName) {
     if (c < 32 || c == 127) throw ProtocolError("Hello: field 'participantName' contains a control character");
   }
-  if (!hello.couplingScheme.empty() && hello.couplingScheme != "justInTime" && hello.couplingScheme != "predictive") {
+  if (!hello.couplingScheme.empty() && hello.couplingScheme != "justInTime" && hello.couplingScheme != "predictive" &&
+      hello.couplingScheme != "implicit") {
     throw ProtocolError("Hello from '" + hello.participantName + "': field 'couplingScheme' is '" +
-                        hello.couplingScheme + "'; expected justInTime, predictive or empty");
+                        hello.couplingScheme + "'; expected justInTime, predictive, implicit or empty");
   }
   if (hello.unitSystem != "SI") {
     throw ProtocolError("Hello from '" + hello.participantName + "': field 'unitSystem' is '" + hello.unitSystem +
@@ -563,6 +568,7 @@ ForceMessage decodeForces(const Header& header, const std::uint8_t* data, std::s
   Reader reader(data + headerBytes, header.payloadBytes);
   ForceMessage message;
   message.window = header.window;
+  message.iteration = header.iteration;
   message.time = header.time;
   if (!reader.f64Array(message.forces, static_cast<std::size_t>(3 * header.nodeCount))) {
     requireFinite(message.forces, describe(header), "forces");

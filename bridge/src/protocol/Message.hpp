@@ -12,7 +12,7 @@
 namespace railcosim::protocol {
 
 /// Bumped on any change of the byte layout; both participants must speak the same version.
-constexpr std::uint16_t protocolVersion = 1;
+constexpr std::uint16_t protocolVersion = 2;
 /// Every message starts with these 4 bytes.
 constexpr char magic[4] = {'R', 'C', 'S', 'M'};
 /// Fixed header size in bytes (docs/protocol.md, "Header").
@@ -43,7 +43,7 @@ struct Header {
   std::uint16_t version = protocolVersion;
   MessageType type = MessageType::Hello;
   std::uint64_t window = 0;
-  std::uint32_t iteration = 0;   // reserved for implicit coupling; always 0 in version 1
+  std::uint32_t iteration = 0;   // implicit coupling: pass k of window `window` (Forces, Kinematics); else 0
   std::uint32_t flags = 0;
   double time = 0.0;
   std::uint64_t nodeCount = 0;
@@ -55,7 +55,7 @@ struct Hello {
   Role role = Role::Fem;
   std::string participantName;
   std::string unitSystem = "SI";
-  std::string couplingScheme;  // "" (not stated), "justInTime" or "predictive"
+  std::string couplingScheme;  // "" (not stated), "justInTime", "predictive" or "implicit"
 };
 
 struct MeshSetup {
@@ -73,7 +73,7 @@ std::vector<std::uint8_t> encodeMesh(const InterfaceMesh& mesh, double femTimeSt
                                      std::vector<std::uint8_t> buffer = {});
 std::vector<std::uint8_t> encodeForces(const ForceMessage& message, std::vector<std::uint8_t> buffer = {});
 std::vector<std::uint8_t> encodeKinematics(std::uint64_t window, const NodalKinematics& kinematics,
-                                           std::vector<std::uint8_t> buffer = {});
+                                           std::vector<std::uint8_t> buffer = {}, std::uint32_t iteration = 0);
 std::vector<std::uint8_t> encodeFinalize(std::uint64_t window, std::vector<std::uint8_t> buffer = {});
 std::vector<std::uint8_t> encodeAbort(std::uint64_t window, const std::string& reason,
                                       std::vector<std::uint8_t> buffer = {});

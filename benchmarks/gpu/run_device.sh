@@ -4,7 +4,8 @@
 #   OUTDIR defaults to ./polyhedra-device-out; sizes default to 10000 100000 1000000.
 # Environment: NVCC (default /usr/local/cuda/bin/nvcc or nvcc on PATH), CUDA_ARCH (default sm_90),
 #   EXTRA_NVCC_FLAGS (e.g. -maxrregcount=128), BENCH_STEPS (200), BENCH_PREPARE (3000), SKIP_COMPARISON=1,
-#   BUILD_DIR (keeps the executables polyhedra_bench and polyhedra_gpu_comparison; default a temporary folder).
+#   BUILD_DIR (keeps the executables polyhedra_bench and polyhedra_gpu_comparison; default a temporary folder),
+#   BUILD_ONLY=1 (stop after the build).
 set -euo pipefail
 out=${1:-polyhedra-device-out}
 shift || true
@@ -28,11 +29,12 @@ for f in yade_engines/gpu/PolyhedraSystem.cpp yade_engines/gpu/PolyhedraCpuBacke
   g++ $common -fopenmp -I/usr/local/cuda/include -c "$f" -o "$build/$(basename "$f" .cpp).o" &
 done
 wait
-grep -A2 "forcesKernel" "$out/ptxas.txt" | grep -E "stack|registers" || true
+grep -A2 -E "pairContactKernel|pairFilterKernel|wallForcesKernel|forcesKernel" "$out/ptxas.txt" | grep -E "stack|registers" || true
 lib="$build/cuda.o $build/PolyhedraSystem.o $build/PolyhedraCpuBackend.o $build/PolyhedraShapes.o $build/Log.o"
 "$nvcc" -arch=$arch $lib "$build/PolyhedraGpuComparison.o" -o "$build/polyhedra_gpu_comparison" -Xcompiler -fopenmp -lgomp
 "$nvcc" -arch=$arch $lib "$build/PolyhedraBench.o" -o "$build/polyhedra_bench" -Xcompiler -fopenmp -lgomp
 echo "build took $(( $(date +%s) - start )) s"
+[ "${BUILD_ONLY:-0}" = 1 ] && exit 0
 if [ "${SKIP_COMPARISON:-0}" != 1 ]; then
   echo "== GPU vs CPU comparison"
   "$build/polyhedra_gpu_comparison" 2>&1 | tee "$out/comparison.txt"

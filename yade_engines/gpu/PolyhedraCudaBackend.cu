@@ -3,6 +3,7 @@
 #include <cub/device/device_radix_sort.cuh>
 #include <cuda_runtime.h>
 
+#include <cstdlib>
 #include <string>
 #include <vector>
 
@@ -65,16 +66,73 @@ __global__ void __launch_bounds__(blockSize) predictKernel(SystemView s) {
     }
 }
 
-// Minimum resident blocks per multiprocessor for the force kernel: caps its registers (1 → up to 255,
-// 2 → 255, 3 → 168, 4 → 128) and so trades register spills for occupancy. Chosen by measurement
-// (docs/benchmarks.md); override with -DRAILCOSIM_POLYHEDRA_FORCE_MIN_BLOCKS=n.
-#ifndef RAILCOSIM_POLYHEDRA_FORCE_MIN_BLOCKS
-#define RAILCOSIM_POLYHEDRA_FORCE_MIN_BLOCKS 1
-#endif
+// Sum of `value` over the warp, added to the active-contact counter by one lane (one atomic per warp
+// instead of one per contact on a single address). Every lane of the warp must call it.
+__device__ inline void addActiveContactsOfWarp(const SystemView& s, unsigned value) {
+    const unsigned total = __reduce_add_sync(0xffffffffu, value);
+    if ((threadIdx.x & 31u) == 0 && total > 0) atomicAdd(&s.counters[counterActive], static_cast<unsigned long long>(total));
+}
 
-__global__ void __launch_bounds__(blockSize, RAILCOSIM_POLYHEDRA_FORCE_MIN_BLOCKS) forcesKernel(SystemView s) {
+// Pair candidates, first pass: one thread per slot, numbered slot-major (thread t is slot k = t / N of
+// stone i = t mod N), so that whole warps past the longest lists of their stones retire at once. Slots
+// not proven apart by the cheap tests are appended to `survivors` (one atomic per warp).
+__global__ void __launch_bounds__(blockSize) pairFilterKernel(SystemView s, std::uint32_t* survivors, unsigned* survivorCount) {
+    const long long t = static_cast<long long>(blockIdx.x) * blockDim.x + threadIdx.x;
+    const int k = static_cast<int>(t / s.stoneCount);
+    const int i = static_cast<int>(t - static_cast<long long>(k) * s.stoneCount);
+    bool survives = false;
+    long long index = 0;
+    if (k < s.maxPairs && k < s.pairCount[i]) {
+        index = static_cast<long long>(i) * s.maxPairs + k;
+        survives = !pairProvenApart(s, i, index);
+    }
+    const unsigned mask = __ballot_sync(0xffffffffu, survives);
+    if (mask == 0) return;
+    const unsigned lane = threadIdx.x & 31u;
+    const unsigned leader = __ffs(mask) - 1;
+    unsigned base = 0;
+    if (lane == leader) base = atomicAdd(survivorCount, static_cast<unsigned>(__popc(mask)));
+    base = __shfl_sync(0xffffffffu, base, leader);
+    if (survives) survivors[base + __popc(mask & ((1u << lane) - 1u))] = static_cast<std::uint32_t>(index);
+}
+
+// Pair candidates, second pass: GJK and the contact law for the survivors, one per thread (grid-stride
+// over a grid of resident blocks, since the survivor count is only known on the device).
+__global__ void __launch_bounds__(blockSize) pairContactKernel(SystemView s, const std::uint32_t* survivors, const unsigned* survivorCount) {
+    const unsigned count = *survivorCount;
+    const unsigned stride = gridDim.x * blockDim.x;
+    unsigned active = 0;
+    // Every lane runs the same number of rounds so that the warp reduction below sees all of them.
+    const unsigned first = blockIdx.x * blockDim.x + threadIdx.x;
+    const unsigned warpFirst = first - (threadIdx.x & 31u);
+    for (unsigned t = first, w = warpFirst; w < count; t += stride, w += stride) {
+        if (t < count) {
+            const long long index = survivors[t];
+            active += pairContact(s, static_cast<int>(index / s.maxPairs), index) ? 1u : 0u;
+        }
+    }
+    addActiveContactsOfWarp(s, active);
+}
+
+// Variant for measurements: both passes fused in one kernel over all slots (no survivor list).
+__global__ void __launch_bounds__(blockSize) pairFusedKernel(SystemView s) {
+    const long long t = static_cast<long long>(blockIdx.x) * blockDim.x + threadIdx.x;
+    const int k = static_cast<int>(t / s.stoneCount);
+    const int i = static_cast<int>(t - static_cast<long long>(k) * s.stoneCount);
+    unsigned active = 0;
+    if (k < s.maxPairs && k < s.pairCount[i]) {
+        const long long index = static_cast<long long>(i) * s.maxPairs + k;
+        if (!pairProvenApart(s, i, index) && pairContact(s, i, index)) active = 1;
+    }
+    addActiveContactsOfWarp(s, active);
+}
+
+// Wall triangles: one thread per stone (the coplanar-duplicate test needs all of a stone's wall contacts).
+__global__ void __launch_bounds__(blockSize) wallForcesKernel(SystemView s) {
     const int i = blockIdx.x * blockDim.x + threadIdx.x;
-    if (i < s.stoneCount) stoneForces(s, i);
+    unsigned active = 0;
+    if (i < s.stoneCount && s.wallCount[i] > 0) active = static_cast<unsigned>(stoneWallForces(s, i));
+    addActiveContactsOfWarp(s, active);
 }
 
 __global__ void __launch_bounds__(blockSize) correctKernel(SystemView s) {
@@ -100,7 +158,14 @@ __global__ void __launch_bounds__(blockSize) neighbourKernel(SystemView s, const
 
 class CudaBackend final : public PolyhedraBackend {
 public:
-    CudaBackend() { check(cudaStreamCreateWithFlags(&stream_, cudaStreamNonBlocking), "cudaStreamCreate"); }
+    CudaBackend() {
+        check(cudaStreamCreateWithFlags(&stream_, cudaStreamNonBlocking), "cudaStreamCreate");
+        // Measurement switches (docs/benchmarks.md): the fused one-pass pair kernel, the contact grid size.
+        const char* mode = std::getenv("RAILCOSIM_POLYHEDRA_PAIR_KERNEL");
+        fusedPairKernel_ = mode != nullptr && std::string(mode) == "fused";
+        const char* waves = std::getenv("RAILCOSIM_POLYHEDRA_CONTACT_WAVES");
+        if (waves != nullptr && std::atoi(waves) > 0) contactBlocksPerResidentBlock_ = std::atoi(waves);
+    }
     ~CudaBackend() override {
         for (auto& g : graphs_)
             if (g) cudaGraphExecDestroy(g);
@@ -138,6 +203,17 @@ public:
         cellStart_.upload(d.cellStart, stream_);
         cellEnd_.upload(d.cellEnd, stream_);
         counters_.resize(counterCount);
+        const long long slots = static_cast<long long>(d.stoneCount) * d.maxPairs;
+        if (slots >= (1ll << 31))
+            throw Error("polyhedra CUDA backend: stones × maxNeighbours = " + std::to_string(slots) +
+                        " does not fit the 32-bit survivor list; lower maxNeighbours or split the system");
+        survivors_.resize(static_cast<std::size_t>(slots > 0 ? slots : 1));
+        survivorCount_.resize(1);
+        int device = 0, multiprocessors = 0, perMultiprocessor = 0;
+        check(cudaGetDevice(&device), "cudaGetDevice");
+        check(cudaDeviceGetAttribute(&multiprocessors, cudaDevAttrMultiProcessorCount, device), "device attribute");
+        check(cudaOccupancyMaxActiveBlocksPerMultiprocessor(&perMultiprocessor, pairContactKernel, blockSize, 0), "occupancy query");
+        contactBlocks_ = multiprocessors * (perMultiprocessor > 0 ? perMultiprocessor : 1) * contactBlocksPerResidentBlock_;
         std::size_t bytes = 0;
         check(cub::DeviceRadixSort::SortPairs(nullptr, bytes, rawKey_.get(), cellKey_.get(), rawStone_.get(), sortedStone_.get(),
                                               d.stoneCount, 0, sortBits(d.tableSize), stream_),
@@ -186,8 +262,7 @@ public:
             enqueueRebuild(d);
             SystemView prime = view(d);
             prime.timeStep = 0.0;  // initial forces without moving the tangential springs
-            forcesKernel<<<blocks(d.stoneCount), blockSize, 0, stream_>>>(prime);
-            check(cudaGetLastError(), "initial force kernel");
+            enqueueForces(d, prime);
             zeroTriangleSums();
             check(cudaMemsetAsync(counters_.get() + counterActive, 0, sizeof(unsigned long long), stream_), "counter reset");
             d.forcesValid = true;
@@ -290,6 +365,27 @@ private:
         check(cudaGetLastError(), "neighbour kernel");
     }
 
+    // Contact forces of the state in `v`: pair candidates (filter, then GJK and contact law on the survivors),
+    // then wall triangles.
+    void enqueueForces(HostData& d, const SystemView& v) {
+        const long long slots = static_cast<long long>(d.stoneCount) * d.maxPairs;
+        const int slotBlocks = static_cast<int>((slots + blockSize - 1) / blockSize);
+        if (slots > 0 && fusedPairKernel_) {
+            pairFusedKernel<<<slotBlocks, blockSize, 0, stream_>>>(v);
+            check(cudaGetLastError(), "pair kernel");
+        } else if (slots > 0) {
+            check(cudaMemsetAsync(survivorCount_.get(), 0, sizeof(unsigned), stream_), "memset");
+            pairFilterKernel<<<slotBlocks, blockSize, 0, stream_>>>(v, survivors_.get(), survivorCount_.get());
+            check(cudaGetLastError(), "pair filter kernel");
+            pairContactKernel<<<contactBlocks_, blockSize, 0, stream_>>>(v, survivors_.get(), survivorCount_.get());
+            check(cudaGetLastError(), "pair contact kernel");
+        }
+        if (d.triangleCount() > 0) {
+            wallForcesKernel<<<blocks(d.stoneCount), blockSize, 0, stream_>>>(v);
+            check(cudaGetLastError(), "wall force kernel");
+        }
+    }
+
     // `count` steps, the first with a neighbour rebuild (as the CPU reference: step index % interval == 0).
     void enqueueChunk(HostData& d, int count) {
         for (int s = 0; s < count; ++s) {
@@ -298,8 +394,7 @@ private:
             check(cudaGetLastError(), "predict kernel");
             if (s == 0) enqueueRebuild(d);
             v = view(d);
-            forcesKernel<<<blocks(d.stoneCount), blockSize, 0, stream_>>>(v);
-            check(cudaGetLastError(), "force kernel");
+            enqueueForces(d, v);
             correctKernel<<<blocks(d.stoneCount), blockSize, 0, stream_>>>(v);
             check(cudaGetLastError(), "correct kernel");
         }
@@ -325,6 +420,11 @@ private:
     DeviceArray<std::uint32_t> cellKey_, rawKey_;
     DeviceArray<unsigned long long> counters_;
     DeviceArray<unsigned char> sortTemp_;
+    DeviceArray<std::uint32_t> survivors_;
+    DeviceArray<unsigned> survivorCount_;
+    int contactBlocks_ = 1;
+    int contactBlocksPerResidentBlock_ = 1;
+    bool fusedPairKernel_ = false;
 };
 
 }  // namespace

@@ -100,6 +100,7 @@ struct CoreDistance {
     double distance;    // Δ between the cores [m]
     Vec3 pointA;        // closest point on core A [m]
     Vec3 pointB;        // closest point on core B [m]
+    Vec3 axis;          // beyondCutoff only: unit direction A -> B along which the cores are ≥ cutoff apart
     int iterations;
 };
 
@@ -350,7 +351,7 @@ RAILCOSIM_HOST_DEVICE inline CoreDistance coreDistance(const ConvexCore& A, cons
     s.count = 1;
     detail::Weights weights{1.0, 0.0, 0.0, 0.0};
     Vec3 v = detail::point(pair, s.p0);
-    CoreDistance result{false, false, 0.0, Vec3{0.0, 0.0, 0.0}, Vec3{0.0, 0.0, 0.0}, 0};
+    CoreDistance result{false, false, 0.0, Vec3{0.0, 0.0, 0.0}, Vec3{0.0, 0.0, 0.0}, Vec3{0.0, 0.0, 0.0}, 0};
     int iteration = 0;
     for (; iteration < maxIterations; ++iteration) {
         const double vv = kernels::dot(v, v);
@@ -365,7 +366,9 @@ RAILCOSIM_HOST_DEVICE inline CoreDistance coreDistance(const ConvexCore& A, cons
         const double separation = kernels::dot(v, w);
         if (separation > 0.0 && separation * separation >= cutoff * cutoff * vv) {
             result.beyondCutoff = true;
-            result.distance = separation / std::sqrt(vv);
+            const double length = std::sqrt(vv);
+            result.distance = separation / length;
+            result.axis = (-1.0 / length) * v;  // v points from B to A
             result.iterations = iteration;
             return result;
         }

@@ -316,12 +316,21 @@ RAILCOSIM_HOST_DEVICE inline void buildNeighbours(const SystemView& s, int i, co
 }
 
 // ---------------------------------------------------------------------------------------------------
-// Narrow phase and contact law of one candidate.
+// Narrow phase and contact law of one candidate, as two steps: the geometry (GJK) first, the kinematics
+// and the force law only for candidates in contact (most candidates are not, and on the GPU the
+// kinematics of both bodies held across GJK would only add to its register demand).
 // ---------------------------------------------------------------------------------------------------
 struct ContactKinematics {
     Vec3 velocity;   // of the body's reference point [m/s]
     Vec3 omega;      // world angular velocity [rad/s]
     Vec3 centre;     // reference point for the lever arm [m]
+};
+
+struct ContactGeometry {
+    bool touching;
+    double overlap;  // δ [m]
+    Vec3 normal;     // A -> B
+    Vec3 point;
 };
 
 struct ContactResult {
@@ -332,26 +341,44 @@ struct ContactResult {
     Vec3 forceOnB;
 };
 
-// Evaluates the contact between cores A and B dilated by radiusA and radiusB, updates the history slot
-// and returns the force on B (−force acts on A). effectiveRadius: Hertz curvature of the dilation
-// (seed002 eq. 2.20: the dilating spheres touch, so R* = r_A r_B / (r_A + r_B); r_A for a flat wall).
-RAILCOSIM_HOST_DEVICE inline ContactResult evaluateContact(const ConvexCore& A, const ConvexCore& B, double radiusA, double radiusB,
-                                                           double effectiveRadius, double effectiveMass, const ContactLawConstants& law,
-                                                           const ContactKinematics& kinematicsA, const ContactKinematics& kinematicsB, double timeStep,
-                                                           double featureTolerance, ContactSlot& slot, unsigned long long* counters) {
-    ContactResult result{false, 0.0, Vec3{0.0, 0.0, 0.0}, Vec3{0.0, 0.0, 0.0}, Vec3{0.0, 0.0, 0.0}};
-    const Vec3 previousNormal{slot.normal[0], slot.normal[1], slot.normal[2]};
-    const bool hasPrevious = kernels::squaredNorm(previousNormal) > 0.5;
-    const Vec3 guess = hasPrevious ? previousNormal : kinematicsB.centre - kinematicsA.centre;
+// Releases the history of a candidate whose dilated bodies are apart; `axis` (unit, A -> B, along which
+// they were proven apart) is kept in the normal field as the next test axis and GJK warm start.
+RAILCOSIM_HOST_DEVICE inline void releaseContact(ContactSlot& slot, const Vec3& axis) {
+    slot.active = 0;
+    slot.elasticShear[0] = slot.elasticShear[1] = slot.elasticShear[2] = 0.0;
+    slot.overlap = 0.0;
+    slot.normal[0] = axis.x;
+    slot.normal[1] = axis.y;
+    slot.normal[2] = axis.z;
+}
+
+RAILCOSIM_HOST_DEVICE inline Vec3 slotNormal(const ContactSlot& slot) { return Vec3{slot.normal[0], slot.normal[1], slot.normal[2]}; }
+
+RAILCOSIM_HOST_DEVICE inline bool hasSlotNormal(const ContactSlot& slot) { return kernels::squaredNorm(slotNormal(slot)) > 0.5; }
+
+// Separating-axis test along the slot's last normal or separating axis: the cores are at least
+// max_B(−n·x) − max_A(n·x) apart, so the dilated bodies are apart when that reaches r_A + r_B (the same
+// criterion as GJK's early exit). Two support scans instead of a GJK run: between neighbour-list rebuilds
+// most candidates that were apart at the last step are still apart along the same axis.
+RAILCOSIM_HOST_DEVICE inline bool provenApartAlongSlotAxis(const ConvexCore& A, const ConvexCore& B, double reach, const ContactSlot& slot) {
+    if (!hasSlotNormal(slot)) return false;
+    return -coreOverlapAlong(A, B, slotNormal(slot)) >= reach;
+}
+
+// Narrow phase: distance of the cores A and B dilated by radiusA and radiusB (GJK, warm-started from the
+// slot's normal), normal, overlap and contact point; releases the slot's history when they are apart.
+RAILCOSIM_HOST_DEVICE inline ContactGeometry contactGeometry(const ConvexCore& A, const ConvexCore& B, double radiusA, double radiusB,
+                                                             const Vec3& centreLine, double featureTolerance, ContactSlot& slot,
+                                                             unsigned long long* counters) {
+    ContactGeometry result{false, 0.0, Vec3{0.0, 0.0, 0.0}, Vec3{0.0, 0.0, 0.0}};
+    const Vec3 guess = hasSlotNormal(slot) ? slotNormal(slot) : centreLine;
     const CoreDistance d = coreDistance(A, B, guess, radiusA + radiusB);
     Vec3 n;
     double gap;
     Vec3 midpoint;
     if (d.beyondCutoff || (!d.intersecting && d.distance > 1e-12 * (radiusA + radiusB))) {
         if (d.beyondCutoff || d.distance >= radiusA + radiusB) {  // dilated bodies apart: the history is released
-            slot.active = 0;
-            slot.elasticShear[0] = slot.elasticShear[1] = slot.elasticShear[2] = 0.0;
-            slot.overlap = 0.0;
+            releaseContact(slot, d.beyondCutoff ? d.axis : (d.pointB - d.pointA) / d.distance);
             return result;
         }
         n = (d.pointB - d.pointA) / d.distance;
@@ -371,21 +398,34 @@ RAILCOSIM_HOST_DEVICE inline ContactResult evaluateContact(const ConvexCore& A, 
     const Vec3 fallback = midpoint + (0.5 * (radiusA - radiusB)) * n;
     // Feature band: a fraction of the smaller positive dilation radius (a flat wall has none).
     const double bandRadius = radiusB > 0.0 && radiusB < radiusA ? radiusB : radiusA;
-    const Vec3 point = featureTolerance > 0.0 ? contactPatchCentre(A, B, n, planeHeight, fallback, featureTolerance * bandRadius) : fallback;
+    result.touching = true;
+    result.overlap = overlap;
+    result.normal = n;
+    result.point = featureTolerance > 0.0 ? contactPatchCentre(A, B, n, planeHeight, fallback, featureTolerance * bandRadius) : fallback;
+    return result;
+}
 
-    const Vec3 velocityA = kinematicsA.velocity + kernels::cross(kinematicsA.omega, point - kinematicsA.centre);
-    const Vec3 velocityB = kinematicsB.velocity + kernels::cross(kinematicsB.omega, point - kinematicsB.centre);
+// Contact law of a touching candidate: Hertz normal force with damping and the incremental Coulomb-capped
+// tangential force (kernels/HertzMindlin.hpp); updates the slot's history and returns the force on B.
+// effectiveRadius: Hertz curvature of the dilation (seed002 eq. 2.20: the dilating spheres touch, so
+// R* = r_A r_B / (r_A + r_B); r_A for a flat wall).
+RAILCOSIM_HOST_DEVICE inline Vec3 contactForce(const ContactGeometry& g, double effectiveRadius, double effectiveMass, const ContactLawConstants& law,
+                                               const ContactKinematics& kinematicsA, const ContactKinematics& kinematicsB, double timeStep,
+                                               ContactSlot& slot) {
+    const Vec3 n = g.normal;
+    const Vec3 velocityA = kinematicsA.velocity + kernels::cross(kinematicsA.omega, g.point - kinematicsA.centre);
+    const Vec3 velocityB = kinematicsB.velocity + kernels::cross(kinematicsB.omega, g.point - kinematicsB.centre);
     const Vec3 relative = velocityB - velocityA;  // of B with respect to A at the contact point
     const double overlapRate = -kernels::dot(relative, n);
 
     kernels::HertzMindlinParams params{law.effectiveYoungModulus, law.effectiveShearModulus, effectiveRadius, effectiveMass,
                                        law.dampingRatio};
-    const double normalForce = kernels::hertzNormalForce(params, overlap, overlapRate);
+    const double normalForce = kernels::hertzNormalForce(params, g.overlap, overlapRate);
     const Vec3 history{slot.elasticShear[0], slot.elasticShear[1], slot.elasticShear[2]};
     const double previousOverlap = slot.active ? slot.overlap : 0.0;
     const Vec3 tangentialVelocity = kernels::tangentialPart(relative, n);
     const kernels::TangentialForceResult tangential = kernels::mindlinTangentialForce(
-        params, slot.active ? history : Vec3{0.0, 0.0, 0.0}, n, overlap, previousOverlap, timeStep * tangentialVelocity,
+        params, slot.active ? history : Vec3{0.0, 0.0, 0.0}, n, g.overlap, previousOverlap, timeStep * tangentialVelocity,
         tangentialVelocity, law.friction, normalForce);
 
     slot.active = 1;
@@ -395,128 +435,186 @@ RAILCOSIM_HOST_DEVICE inline ContactResult evaluateContact(const ConvexCore& A, 
     slot.normal[0] = n.x;
     slot.normal[1] = n.y;
     slot.normal[2] = n.z;
-    slot.overlap = overlap;
-    result.active = true;
-    result.overlap = overlap;
-    result.normal = n;
-    result.point = point;
-    result.forceOnB = normalForce * n + tangential.force;
-    return result;
+    slot.overlap = g.overlap;
+    return normalForce * n + tangential.force;
 }
 
-// Forces of all candidates of stone i: stone pairs (i owns j > i), then wall triangles. One loop with a
-// single evaluateContact call site keeps the device code (and its register demand) to one copy.
-RAILCOSIM_HOST_DEVICE inline void stoneForces(const SystemView& s, int i) {
+// Both steps for one candidate: the history slot is updated and the force on B returned (−force acts on A).
+RAILCOSIM_HOST_DEVICE inline ContactResult evaluateContact(const ConvexCore& A, const ConvexCore& B, double radiusA, double radiusB,
+                                                           double effectiveRadius, double effectiveMass, const ContactLawConstants& law,
+                                                           const ContactKinematics& kinematicsA, const ContactKinematics& kinematicsB, double timeStep,
+                                                           double featureTolerance, ContactSlot& slot, unsigned long long* counters) {
+    const ContactGeometry g = contactGeometry(A, B, radiusA, radiusB, kinematicsB.centre - kinematicsA.centre, featureTolerance, slot, counters);
+    if (!g.touching) return ContactResult{false, 0.0, Vec3{0.0, 0.0, 0.0}, Vec3{0.0, 0.0, 0.0}, Vec3{0.0, 0.0, 0.0}};
+    const Vec3 force = contactForce(g, effectiveRadius, effectiveMass, law, kinematicsA, kinematicsB, timeStep, slot);
+    return ContactResult{true, g.overlap, g.normal, g.point, force};
+}
+
+// ---------------------------------------------------------------------------------------------------
+// Stone pairs: one candidate slot at a time (slot `index` = i · maxPairs + k of stone i's list), so that
+// the GPU can give each candidate its own thread. The CPU reference runs the same two functions per slot.
+// ---------------------------------------------------------------------------------------------------
+
+// True when candidate `index` of stone i is proven apart without GJK: bounding spheres apart, or the
+// slot's axis still separating the cores by r_A + r_B. Its history is then released.
+RAILCOSIM_HOST_DEVICE inline bool pairProvenApart(const SystemView& s, int i, long long index) {
+    ContactSlot& slotRef = s.pairSlots[index];
+    const int partner = slotRef.partner;
+    const ShapeData& shapeA = s.shapes[s.shape[i]];
+    const ShapeData& shapeB = s.shapes[s.shape[partner]];
+    const Vec3 xA = load3(s.position, i), xB = load3(s.position, partner);
+    const double reach = shapeA.boundingRadius + shapeB.boundingRadius;
+    bool apart = kernels::squaredNorm(xB - xA) >= reach * reach;  // bounding spheres apart
+    if (!apart) {
+        const ContactSlot slot = slotRef;
+        if (!hasSlotNormal(slot)) return false;
+        apart = provenApartAlongSlotAxis(stoneCore(s, i), stoneCore(s, partner), shapeA.dilationRadius + shapeB.dilationRadius, slot);
+    }
+    if (apart && slotRef.active) {
+        slotRef.active = 0;
+        slotRef.elasticShear[0] = slotRef.elasticShear[1] = slotRef.elasticShear[2] = 0.0;
+        slotRef.overlap = 0.0;
+    }
+    return apart;
+}
+
+// Narrow phase and contact law of candidate `index` of stone i; adds the force and torque to both stones
+// (atomically: other threads add to the same stones) and writes the contact output. True when in contact.
+RAILCOSIM_HOST_DEVICE inline bool pairContact(const SystemView& s, int i, long long index) {
+    ContactSlot slot = s.pairSlots[index];
+    const int partner = slot.partner;
+    const ShapeData& shapeA = s.shapes[s.shape[i]];
+    const ShapeData& shapeB = s.shapes[s.shape[partner]];
+    const ConvexCore coreA = stoneCore(s, i);
+    const ConvexCore coreB = stoneCore(s, partner);
+    const ContactGeometry g =
+        contactGeometry(coreA, coreB, shapeA.dilationRadius, shapeB.dilationRadius, coreB.position - coreA.position, s.featureTolerance, slot, s.counters);
+    if (!g.touching) {
+        s.pairSlots[index] = slot;
+        return false;
+    }
+    const ContactKinematics kinematicsA{load3(s.velocity, i), s.rotation[i].angularVelocity, load3(s.position, i)};
+    const ContactKinematics kinematicsB{load3(s.velocity, partner), s.rotation[partner].angularVelocity, load3(s.position, partner)};
+    const Vec3 force = contactForce(g, kernels::effectiveRadius(shapeA.dilationRadius, shapeB.dilationRadius),
+                                    kernels::effectiveMass(shapeA.mass, shapeB.mass), s.stoneLaw, kinematicsA, kinematicsB, s.timeStep, slot);
+    s.pairSlots[index] = slot;
+    ContactOutput& out = s.pairOutput[index];
+    store3(out.point, 0, g.point);
+    store3(out.force, 0, force);
+    atomicAccumulate3(s.force, partner, force);
+    atomicAccumulate3(s.torque, partner, kernels::cross(g.point - kinematicsB.centre, force));
+    atomicAccumulate3(s.force, i, -force);
+    atomicAccumulate3(s.torque, i, -kernels::cross(g.point - kinematicsA.centre, force));
+    return true;
+}
+
+// ---------------------------------------------------------------------------------------------------
+// Wall triangles of stone i: one loop per stone (few stones touch walls), because one flat region of the
+// surface split into several coplanar triangles must act once, not once per triangle: a contact with the
+// same normal and overlap as an accepted one is a duplicate (active = 2). Returns the active contacts.
+// ---------------------------------------------------------------------------------------------------
+RAILCOSIM_HOST_DEVICE inline int stoneWallForces(const SystemView& s, int i) {
+    const int total = s.wallCount[i];
+    if (total == 0) return 0;
     const ShapeData& shapeA = s.shapes[s.shape[i]];
     const ConvexCore coreA = stoneCore(s, i);
-    const ContactKinematics kinematicsA{load3(s.velocity, i), s.rotation[i].angularVelocity, coreA.position};
     Vec3 forceA{0.0, 0.0, 0.0}, torqueA{0.0, 0.0, 0.0};
     int active = 0;
-    const int pairCount = s.pairCount[i];
-    const int total = pairCount + s.wallCount[i];
-    // One flat region of the surface split into several coplanar triangles must act once, not once per
-    // triangle: a contact with the same normal and overlap as an accepted one is a duplicate (active = 2).
     constexpr int maxAccepted = 4;
     Vec3 acceptedNormal[maxAccepted];
     double acceptedOverlap[maxAccepted];
     int acceptedCount = 0;
     for (int k = 0; k < total; ++k) {
-        const bool wall = k >= pairCount;
-        const long long index = wall ? static_cast<long long>(i) * s.maxWalls + (k - pairCount) : static_cast<long long>(i) * s.maxPairs + k;
-        ContactSlot slot = wall ? s.wallSlots[index] : s.pairSlots[index];
+        const long long index = static_cast<long long>(i) * s.maxWalls + k;
+        ContactSlot slot = s.wallSlots[index];
         const int partner = slot.partner;
-        ConvexCore coreB;
-        ContactKinematics kinematicsB;
-        double radiusB, effectiveRadius, effectiveMass;
-        if (!wall) {
-            const ShapeData& shapeB = s.shapes[s.shape[partner]];
-            const Vec3 xB = load3(s.position, partner);
-            const double reach = shapeA.boundingRadius + shapeB.boundingRadius;
-            if (kernels::squaredNorm(xB - coreA.position) >= reach * reach) {  // bounding spheres apart
-                if (slot.active) {
-                    slot.active = 0;
-                    slot.elasticShear[0] = slot.elasticShear[1] = slot.elasticShear[2] = 0.0;
-                    s.pairSlots[index] = slot;
-                }
-                continue;
-            }
-            coreB = stoneCore(s, partner);
-            kinematicsB = ContactKinematics{load3(s.velocity, partner), s.rotation[partner].angularVelocity, xB};
-            radiusB = shapeB.dilationRadius;
-            effectiveRadius = kernels::effectiveRadius(shapeA.dilationRadius, shapeB.dilationRadius);
-            effectiveMass = kernels::effectiveMass(shapeA.mass, shapeB.mass);
-        } else {
-            const int n0 = s.triangles[3 * partner], n1 = s.triangles[3 * partner + 1], n2 = s.triangles[3 * partner + 2];
-            const Vec3 a = load3(s.nodePosition, n0), b = load3(s.nodePosition, n1), c = load3(s.nodePosition, n2);
-            // The triangle as a 3-vertex core read straight from the node array through its connectivity.
-            coreB = ConvexCore{s.nodePosition, 3, Rotation{{1, 0, 0, 0, 1, 0, 0, 0, 1}}, Vec3{0.0, 0.0, 0.0}, s.triangles + 3 * partner};
-            // Barycentric velocity of the triangle at its point nearest to the stone centre; a flat rigid wall
-            // has no rotation, so its lever arm is irrelevant.
-            const Vec3 nearest = closestPointOnTriangle(coreA.position, a, b, c);
-            const Vec3 e0 = b - a, e1 = c - a, e2 = nearest - a;
-            const double d00 = kernels::dot(e0, e0), d01 = kernels::dot(e0, e1), d11 = kernels::dot(e1, e1);
-            const double d20 = kernels::dot(e2, e0), d21 = kernels::dot(e2, e1);
-            const double denominator = d00 * d11 - d01 * d01;
-            const double wb = denominator > 0.0 ? (d11 * d20 - d01 * d21) / denominator : 0.0;
-            const double wc = denominator > 0.0 ? (d00 * d21 - d01 * d20) / denominator : 0.0;
-            const Vec3 velocity = (1.0 - wb - wc) * load3(s.nodeVelocity, n0) + wb * load3(s.nodeVelocity, n1) + wc * load3(s.nodeVelocity, n2);
-            kinematicsB = ContactKinematics{velocity, Vec3{0.0, 0.0, 0.0}, nearest};
-            // The wall is rigid and flat (no dilation): R* = r_A, m* = m_A.
-            radiusB = 0.0;
-            effectiveRadius = shapeA.dilationRadius;
-            effectiveMass = shapeA.mass;
-        }
-        const ContactResult c = evaluateContact(coreA, coreB, shapeA.dilationRadius, radiusB, effectiveRadius, effectiveMass,
-                                                wall ? s.wallLaw : s.stoneLaw, kinematicsA, kinematicsB, s.timeStep, s.featureTolerance, slot, s.counters);
-        if (c.active && wall) {
-            bool duplicate = false;
-            for (int m = 0; m < acceptedCount; ++m) {
-                duplicate = duplicate || (kernels::dot(acceptedNormal[m], c.normal) > 1.0 - 1e-9 &&
-                                          std::fabs(acceptedOverlap[m] - c.overlap) <= 1e-9 * shapeA.dilationRadius);
-            }
-            if (duplicate) {
-                slot.active = 2;
+        // The triangle as a 3-vertex core read straight from the node array through its connectivity.
+        const ConvexCore coreB{s.nodePosition, 3, Rotation{{1, 0, 0, 0, 1, 0, 0, 0, 1}}, Vec3{0.0, 0.0, 0.0}, s.triangles + 3 * partner};
+        if (provenApartAlongSlotAxis(coreA, coreB, shapeA.dilationRadius, slot)) {
+            if (slot.active) {
+                slot.active = 0;
+                slot.elasticShear[0] = slot.elasticShear[1] = slot.elasticShear[2] = 0.0;
+                slot.overlap = 0.0;
                 s.wallSlots[index] = slot;
-                continue;
             }
-            if (acceptedCount < maxAccepted) {
-                acceptedNormal[acceptedCount] = c.normal;
-                acceptedOverlap[acceptedCount] = c.overlap;
-                ++acceptedCount;
-            }
+            continue;
         }
-        if (wall) {
+        const int n0 = s.triangles[3 * partner], n1 = s.triangles[3 * partner + 1], n2 = s.triangles[3 * partner + 2];
+        const Vec3 a = load3(s.nodePosition, n0), b = load3(s.nodePosition, n1), c = load3(s.nodePosition, n2);
+        // Point of the triangle nearest to the stone centre: lever arm and barycentric wall velocity.
+        const Vec3 nearest = closestPointOnTriangle(coreA.position, a, b, c);
+        const ContactGeometry g = contactGeometry(coreA, coreB, shapeA.dilationRadius, 0.0, nearest - coreA.position, s.featureTolerance, slot, s.counters);
+        if (!g.touching) {
             s.wallSlots[index] = slot;
-        } else {
-            s.pairSlots[index] = slot;
+            continue;
         }
-        if (!c.active) continue;
+        const Vec3 e0 = b - a, e1 = c - a, e2 = nearest - a;
+        const double d00 = kernels::dot(e0, e0), d01 = kernels::dot(e0, e1), d11 = kernels::dot(e1, e1);
+        const double d20 = kernels::dot(e2, e0), d21 = kernels::dot(e2, e1);
+        const double denominator = d00 * d11 - d01 * d01;
+        const double wb = denominator > 0.0 ? (d11 * d20 - d01 * d21) / denominator : 0.0;
+        const double wc = denominator > 0.0 ? (d00 * d21 - d01 * d20) / denominator : 0.0;
+        const Vec3 velocity = (1.0 - wb - wc) * load3(s.nodeVelocity, n0) + wb * load3(s.nodeVelocity, n1) + wc * load3(s.nodeVelocity, n2);
+        // A flat rigid wall has no rotation, so its lever arm is irrelevant; no dilation: R* = r_A, m* = m_A.
+        const ContactKinematics kinematicsA{load3(s.velocity, i), s.rotation[i].angularVelocity, coreA.position};
+        const ContactKinematics kinematicsB{velocity, Vec3{0.0, 0.0, 0.0}, nearest};
+        // A duplicate keeps its tangential spring up to date too (it takes over when its twin separates).
+        const Vec3 force = contactForce(g, shapeA.dilationRadius, shapeA.mass, s.wallLaw, kinematicsA, kinematicsB, s.timeStep, slot);
+        bool duplicate = false;
+        for (int m = 0; m < acceptedCount; ++m) {
+            duplicate = duplicate || (kernels::dot(acceptedNormal[m], g.normal) > 1.0 - 1e-9 &&
+                                      std::fabs(acceptedOverlap[m] - g.overlap) <= 1e-9 * shapeA.dilationRadius);
+        }
+        if (duplicate) {
+            slot.active = 2;
+            s.wallSlots[index] = slot;
+            continue;
+        }
+        if (acceptedCount < maxAccepted) {
+            acceptedNormal[acceptedCount] = g.normal;
+            acceptedOverlap[acceptedCount] = g.overlap;
+            ++acceptedCount;
+        }
+        s.wallSlots[index] = slot;
         ++active;
-        ContactOutput& out = wall ? s.wallOutput[index] : s.pairOutput[index];
-        store3(out.point, 0, c.point);
-        store3(out.force, 0, c.forceOnB);
-        forceA -= c.forceOnB;
-        torqueA -= kernels::cross(c.point - coreA.position, c.forceOnB);
-        if (wall) {
-            atomicAccumulate3(s.triangleForceSum, partner, c.forceOnB);
-            const double magnitude = kernels::norm(c.forceOnB);
-            atomicAccumulate3(s.trianglePointSum, partner, magnitude * c.point);
-            atomicAccumulate(s.triangleWeightSum + partner, magnitude);
-        } else {
-            atomicAccumulate3(s.force, partner, c.forceOnB);
-            atomicAccumulate3(s.torque, partner, kernels::cross(c.point - kinematicsB.centre, c.forceOnB));
-        }
+        ContactOutput& out = s.wallOutput[index];
+        store3(out.point, 0, g.point);
+        store3(out.force, 0, force);
+        forceA -= force;
+        torqueA -= kernels::cross(g.point - coreA.position, force);
+        atomicAccumulate3(s.triangleForceSum, partner, force);
+        const double magnitude = kernels::norm(force);
+        atomicAccumulate3(s.trianglePointSum, partner, magnitude * g.point);
+        atomicAccumulate(s.triangleWeightSum + partner, magnitude);
     }
-    atomicAccumulate3(s.force, i, forceA);
-    atomicAccumulate3(s.torque, i, torqueA);
     if (active > 0) {
+        atomicAccumulate3(s.force, i, forceA);
+        atomicAccumulate3(s.torque, i, torqueA);
+    }
+    return active;
+}
+
+RAILCOSIM_HOST_DEVICE inline void addActiveContacts(const SystemView& s, unsigned long long count) {
+    if (count == 0) return;
 #if defined(RAILCOSIM_POLYHEDRA_DEVICE_PASS)
-        atomicAdd(&s.counters[counterActive], static_cast<unsigned long long>(active));
+    atomicAdd(&s.counters[counterActive], count);
 #else
 #pragma omp atomic
-        s.counters[counterActive] += static_cast<unsigned long long>(active);
+    s.counters[counterActive] += count;
 #endif
+}
+
+// All candidates of stone i in one loop (the CPU reference; the GPU runs the same per-slot functions in
+// separate kernels).
+RAILCOSIM_HOST_DEVICE inline void stoneForces(const SystemView& s, int i) {
+    int active = 0;
+    const int pairCount = s.pairCount[i];
+    for (int k = 0; k < pairCount; ++k) {
+        const long long index = static_cast<long long>(i) * s.maxPairs + k;
+        if (!pairProvenApart(s, i, index) && pairContact(s, i, index)) ++active;
     }
+    active += stoneWallForces(s, i);
+    addActiveContacts(s, static_cast<unsigned long long>(active));
 }
 
 }  // namespace railcosim::polyhedra

@@ -3,7 +3,9 @@
 // Functions added to the FreeFEM language (one participant per FreeFem++ process):
 //
 //   long railcosimConnect(string endpoint, string name, real timeoutSeconds)
+//   long railcosimConnect(string endpoint, string name, real timeoutSeconds, string scheme)
 //       Creates the FEM participant; the FEM side binds `endpoint` (ZeroMQ, e.g. "ipc:///tmp/x.sock").
+//       `scheme` ("justInTime", "predictive", "implicit") is checked against the DEM side's at the handshake.
 //   long railcosimInitialize(real[int] coordinates, int[int] triangles, real femTimeStep,
 //                            real[int] velocities, real[int] accelerations)
 //       Handshake: sends the interface mesh (coordinates x0,y0,z0,x1,... [m]; triangles i0,j0,k0,...
@@ -20,6 +22,9 @@
 //   long railcosimAbort(string why) Tells the DEM side this side failed, with the reason.
 //   real railcosimForceTime()       Time [s] the last received forces refer to.
 //   long railcosimForceWindow()     Window index of the last received forces.
+//   long railcosimForceIteration()  Implicit scheme: pass k of the last received forces. 0 opens a new
+//                                   window (the previous pass is accepted); k > 0 repeats the same window,
+//                                   to be solved again from the state saved at its start.
 //   real railcosimBridgeSeconds()   Seconds spent packing/unpacking and inside ZeroMQ calls.
 //   real railcosimWaitSeconds()     Seconds spent waiting for the DEM side (its compute time).
 //   long railcosimExchanges()       Messages sent + received after the handshake.
@@ -53,6 +58,7 @@ struct PluginState {
   railcosim::BridgeStatistics finalStatistics;  // kept after the participant is released
   double lastForceTime = 0.0;
   long lastForceWindow = -1;
+  long lastForceIteration = 0;
 };
 
 PluginState& state() {
@@ -119,7 +125,7 @@ void requireNodalSize(const char* function, const char* what, const KN<double>& 
   }
 }
 
-long railcosimConnect(string* const& endpoint, string* const& name, const double& timeoutSeconds) {
+long connectWithScheme(string* const& endpoint, string* const& name, const double& timeoutSeconds, const std::string& scheme) {
   return guarded("railcosimConnect", [&]() -> long {
     PluginState& s = state();
     if (s.participant || s.finalized)
@@ -133,10 +139,19 @@ long railcosimConnect(string* const& endpoint, string* const& name, const double
     config.name = *name;
     config.endpoint = *endpoint;
     config.timeoutSeconds = timeoutSeconds;
+    config.couplingScheme = scheme;
     s.name = config.name;
     s.participant = std::make_unique<railcosim::FemParticipant>(config);
     return 0L;
   });
+}
+
+long railcosimConnect(string* const& endpoint, string* const& name, const double& timeoutSeconds) {
+  return connectWithScheme(endpoint, name, timeoutSeconds, "");
+}
+
+long railcosimConnectScheme(string* const& endpoint, string* const& name, const double& timeoutSeconds, string* const& scheme) {
+  return connectWithScheme(endpoint, name, timeoutSeconds, *scheme);
 }
 
 long railcosimInitialize(KN<double>* const& coordinates, KN<long>* const& triangles, const double& femTimeStep,
@@ -181,6 +196,7 @@ long railcosimReceiveForces(KN<double>* const& forces) {
     for (long i = 0; i < static_cast<long>(message->forces.size()); ++i) (*forces)[i] = message->forces[i];
     s.lastForceTime = message->time;
     s.lastForceWindow = static_cast<long>(message->window);
+    s.lastForceIteration = static_cast<long>(message->iteration);
     return 1L;
   });
 }
@@ -238,6 +254,7 @@ const railcosim::BridgeStatistics& currentStatistics() {
 
 double railcosimForceTime() { return state().lastForceTime; }
 long railcosimForceWindow() { return state().lastForceWindow; }
+long railcosimForceIteration() { return state().lastForceIteration; }
 double railcosimBridgeSeconds() { return currentStatistics().bridgeSeconds(); }
 double railcosimWaitSeconds() { return currentStatistics().waitSeconds; }
 long railcosimExchanges() { return static_cast<long>(currentStatistics().exchanges); }
@@ -246,6 +263,7 @@ long railcosimExchanges() { return static_cast<long>(currentStatistics().exchang
 
 static void init() {
   Global.Add("railcosimConnect", "(", new OneOperator3_<long, string*, string*, double>(railcosimConnect));
+  Global.Add("railcosimConnect", "(", new OneOperator4_<long, string*, string*, double, string*>(railcosimConnectScheme));
   Global.Add("railcosimInitialize", "(",
              new OneOperator5_<long, KN<double>*, KN<long>*, double, KN<double>*, KN<double>*>(railcosimInitialize));
   Global.Add("railcosimReceiveForces", "(", new OneOperator1_<long, KN<double>*>(railcosimReceiveForces));
@@ -255,6 +273,7 @@ static void init() {
   Global.Add("railcosimAbort", "(", new OneOperator1_<long, string*>(railcosimAbort));
   Global.Add("railcosimForceTime", "(", new OneOperator0<double>(railcosimForceTime));
   Global.Add("railcosimForceWindow", "(", new OneOperator0<long>(railcosimForceWindow));
+  Global.Add("railcosimForceIteration", "(", new OneOperator0<long>(railcosimForceIteration));
   Global.Add("railcosimBridgeSeconds", "(", new OneOperator0<double>(railcosimBridgeSeconds));
   Global.Add("railcosimWaitSeconds", "(", new OneOperator0<double>(railcosimWaitSeconds));
   Global.Add("railcosimExchanges", "(", new OneOperator0<long>(railcosimExchanges));

@@ -80,6 +80,7 @@ int main(int argc, char** argv) {
     config.name = "pressure-dem";
     config.endpoint = options["endpoint"];
     config.timeoutSeconds = std::stod(options["timeout"]);
+    config.couplingScheme = toString(scheme);
     DemParticipant participant(config);
     const InterfaceSetup setup = participant.initialize();
     const InterfaceMesh& mesh = setup.mesh;
@@ -131,6 +132,18 @@ int main(int argc, char** argv) {
       if (scheme == CouplingScheme::JustInTime) {
         participant.sendForces(message);
         received = participant.receiveKinematics(message.window);
+      } else if (scheme == CouplingScheme::Implicit) {
+        // Two passes per window: a decoy (3x the load) the FEM must forget, then the real load; the FEM
+        // re-solves the window from its saved start, so the accepted run equals the just-in-time one.
+        ForceMessage decoy = message;
+        for (double& f : decoy.forces) f *= 3.0;
+        decoy.iteration = 0;
+        participant.sendForces(decoy);
+        participant.receiveKinematics(message.window);
+        message.iteration = 1;
+        participant.sendForces(message);
+        received = participant.receiveKinematics(message.window);
+        message.iteration = 0;
       } else {
         received = participant.receiveKinematics(message.window);
         participant.sendForces(message);

@@ -3,6 +3,7 @@
 
 #include "railcosim/Error.hpp"
 #include "railcosim/ForceLumping.hpp"
+#include "railcosim/ImplicitCoupling.hpp"
 #include "railcosim/Participant.hpp"
 #include "railcosim/WindowInterpolation.hpp"
 
@@ -19,6 +20,11 @@
 #include <pkg/common/Sphere.hpp>
 #include <pkg/dem/FrictPhys.hpp>
 #include <pkg/dem/DemXDofGeom.hpp>
+
+#include <boost/archive/binary_iarchive.hpp>
+#include <boost/archive/binary_oarchive.hpp>
+#include <boost/serialization/shared_ptr.hpp>
+#include <boost/serialization/vector.hpp>
 
 #include <chrono>
 #include <cmath>
@@ -42,6 +48,18 @@ namespace {
 		return (la * a + lb * b + lc * c) / (la + lb + lc);
 	}
 }
+
+// What the implicit scheme restores when it repeats a window: body states and interactions (serialized
+// with YADE's own archives, so every contact law's history comes back), the summed forces of the step
+// the window started in, the clock, the audit sums and the hierarchy model's contact history.
+struct FemCouplingEngine::Checkpoint {
+	std::string                                                       archive;
+	std::vector<Vector3r>                                             force, torque;
+	Real                                                              time = 0;
+	long                                                              iter = 0;
+	Real                                                              workDem = 0, workFem = 0;
+	std::shared_ptr<std::map<Body::id_t, std::vector<ContactHistory>>> history;
+};
 
 struct FemCouplingEngine::ContactHistory {
 	railcosim::kernels::SurfaceContact contact;      // where the contact was at the previous step
@@ -84,6 +102,19 @@ void FemCouplingEngine::connect()
 	if (endpoint.empty()) throw std::invalid_argument("FemCouplingEngine: 'endpoint' is empty; set it to the FEM participant's ZeroMQ endpoint.");
 	if (!material) throw std::invalid_argument("FemCouplingEngine: 'material' is not set; give the facets a material, e.g. material=O.materials[0].");
 	predictive            = (railcosim::parseCouplingScheme(scheme) == railcosim::CouplingScheme::Predictive);
+	railcosim::ImplicitSettings implicitSettings;
+	implicitSettings.tolerance         = implicitTolerance;
+	implicitSettings.absoluteTolerance = implicitAbsoluteTolerance;
+	implicitSettings.maxIterations     = implicitMaxIterations;
+	implicitSettings.relaxation        = implicitRelaxation;
+	implicitSettings.aitken            = aitken;
+	if (isImplicit()) {
+		try {
+			implicitSettings.validate();
+		} catch (const railcosim::Error& e) {
+			throw std::invalid_argument(std::string("FemCouplingEngine: ") + e.what() + " (attributes implicitTolerance, implicitAbsoluteTolerance, implicitMaxIterations, implicitRelaxation)");
+		}
+	}
 	const bool hierarchy  = useHierarchy();
 	if (hierarchy) frictionMaterial(material, "the surface 'material'");
 	if (!(restitution >= 0 && restitution <= 1)) throw std::invalid_argument("FemCouplingEngine: restitution must be in [0, 1], got " + std::to_string(restitution));
@@ -146,6 +177,11 @@ void FemCouplingEngine::connect()
 		waitTime += secondsSince(waitKin);
 		lastReceived = std::make_shared<railcosim::NodalKinematics>(end);
 		windowStart  = std::make_shared<railcosim::NodalKinematics>(railcosim::predictiveStart(setup.initial, end, femDt));
+	} else if (isImplicit()) {
+		implicitWindow = std::make_shared<railcosim::ImplicitWindowIteration>(implicitSettings, setup.mesh.coordinates, femDt);
+		accepted       = std::make_shared<railcosim::NodalKinematics>(setup.initial);
+		implicitWindow->startWindow(*accepted);
+		windowStart = std::make_shared<railcosim::NodalKinematics>(implicitWindow->surfaceStart());
 	} else {
 		windowStart = std::make_shared<railcosim::NodalKinematics>(setup.initial);
 	}
@@ -213,8 +249,88 @@ void FemCouplingEngine::collectForces(std::vector<double>& nodal) const
 	}
 }
 
+bool FemCouplingEngine::isImplicit() const { return railcosim::parseCouplingScheme(scheme) == railcosim::CouplingScheme::Implicit; }
+
+void FemCouplingEngine::saveCheckpoint()
+{
+	const auto start = Clock::now();
+	if (!checkpoint) checkpoint = std::make_shared<Checkpoint>();
+	Checkpoint& c = *checkpoint;
+	std::vector<shared_ptr<State>> states(scene->bodies->size());
+	for (const auto& b : *scene->bodies)
+		if (b) states[b->id] = b->state;
+	std::ostringstream out;
+	{
+		boost::archive::binary_oarchive archive(out);
+		archive << states;
+		archive << scene->interactions;
+	}
+	c.archive = out.str();
+	scene->forces.sync();
+	c.force.resize(states.size());
+	c.torque.resize(states.size());
+	for (size_t id = 0; id < states.size(); ++id) {
+		c.force[id]  = states[id] ? scene->forces.getForce(id) : Vector3r::Zero();
+		c.torque[id] = states[id] ? scene->forces.getTorque(id) : Vector3r::Zero();
+	}
+	c.time    = scene->time;
+	c.iter    = scene->iter;
+	c.workDem = interfaceWorkDem;
+	c.workFem = interfaceWorkFem;
+	c.history = history;
+	checkpointTime += secondsSince(start);
+}
+
+void FemCouplingEngine::restoreCheckpoint()
+{
+	const auto        start = Clock::now();
+	const Checkpoint& c     = *checkpoint;
+	std::vector<shared_ptr<State>>  states;
+	shared_ptr<InteractionContainer> interactions;
+	{
+		std::istringstream in(c.archive);
+		boost::archive::binary_iarchive archive(in);
+		archive >> states;
+		archive >> interactions;
+	}
+	if (states.size() != scene->bodies->size())
+		throw std::runtime_error("FemCouplingEngine (implicit): bodies were added or erased during a coupling window (" + std::to_string(states.size())
+		                         + " then, " + std::to_string(scene->bodies->size()) + " now); the window cannot be repeated.");
+	for (const auto& b : *scene->bodies) {
+		if (!b) continue;
+		if (!states[b->id])
+			throw std::runtime_error("FemCouplingEngine (implicit): body #" + std::to_string(b->id) + " appeared during a coupling window; the window cannot be repeated.");
+		b->state = states[b->id];
+	}
+	// Interactions as they were; the collider rebuilds its sorted bounds from scratch (dirty flag).
+	interactions->postLoad__calledFromScene(scene->bodies); // binds the loaded copy to this scene's bodies
+	scene->interactions->clear();
+	for (const auto& I : *interactions)
+		scene->interactions->insert(I);
+	scene->interactions->dirty = true;
+	// Summed forces of the step the window started in: the integrator that runs next applies them again.
+	scene->forces.sync();
+	for (size_t id = 0; id < c.force.size(); ++id) {
+		if (!states[id]) continue;
+		scene->forces.addForce(id, c.force[id] - scene->forces.getForce(id));
+		scene->forces.addTorque(id, c.torque[id] - scene->forces.getTorque(id));
+	}
+	scene->time      = c.time;
+	scene->iter      = c.iter;
+	interfaceWorkDem = c.workDem;
+	interfaceWorkFem = c.workFem;
+	history          = c.history;
+	checkpointTime += secondsSince(start);
+}
+
 void FemCouplingEngine::accumulateStep()
 {
+	if (!surfaceTouched)
+		for (double f : stepForces)
+			if (f != 0) {
+				surfaceTouched = true;
+				break;
+			}
 	if (averageForces)
 		for (size_t k = 0; k < stepForces.size(); ++k)
 			forceSum[k] += stepForces[k];
@@ -291,16 +407,17 @@ void FemCouplingEngine::hierarchyContacts(std::vector<double>& nodal)
 	surfaceContacts = count;
 }
 
-void FemCouplingEngine::exchange()
+bool FemCouplingEngine::exchange()
 {
 	railcosim::ForceMessage message;
-	message.window = window;
-	message.time   = scene->time;
+	message.window    = window;
+	message.iteration = implicitWindow ? implicitWindow->iteration() : 0;
+	message.time      = scene->time;
 	if (averageForces) {
 		message.forces = forceSum;
 		for (double& f : message.forces)
 			f /= stepsInWindow;
-	} else if (auditEnergy || useHierarchy()) {
+	} else if (auditEnergy || useHierarchy() || implicitWindow) {
 		message.forces = stepForces; // already gathered for this step
 	} else {
 		collectForces(message.forces);
@@ -315,6 +432,37 @@ void FemCouplingEngine::exchange()
 	participant->sendForces(message);
 	railcosim::NodalKinematics received = participant->receiveKinematics(predictive ? window + 1 : window);
 	waitTime += participant->statistics().waitSeconds - before;
+	if (implicitWindow) {
+		const auto outcome = implicitWindow->judge(received, surfaceTouched);
+		++implicitPasses;
+		lastResidual = implicitWindow->residualNorm();
+		if (outcome == railcosim::ImplicitWindowIteration::Outcome::Repeat) {
+			windowStart = std::make_shared<railcosim::NodalKinematics>(implicitWindow->surfaceStart());
+			std::fill(forceSum.begin(), forceSum.end(), 0.0);
+			surfaceTouched = false;
+			return false;
+		}
+		lastWindowPasses = implicitWindow->iteration() + 1;
+		maxWindowPasses  = std::max(maxWindowPasses, lastWindowPasses);
+		if (outcome == railcosim::ImplicitWindowIteration::Outcome::GaveUp) {
+			if (unconvergedWindows == 0)
+				LOG_WARN("implicit coupling: window " << window << " did not converge in " << implicitMaxIterations << " passes (residual " << lastResidual
+				                                      << " m, limit " << implicitWindow->convergenceLimit()
+				                                      << " m); its last pass is accepted. Counted in unconvergedWindows; reported once.");
+			++unconvergedWindows;
+		}
+		if (auditEnergy)
+			for (size_t k = 0; k < message.forces.size(); ++k)
+				interfaceWorkFem += message.forces[k] * (received.positions[k] - accepted->positions[k]);
+		accepted = std::make_shared<railcosim::NodalKinematics>(std::move(received));
+		implicitWindow->startWindow(*accepted);
+		windowStart = std::make_shared<railcosim::NodalKinematics>(implicitWindow->surfaceStart());
+		std::fill(forceSum.begin(), forceSum.end(), 0.0);
+		surfaceTouched = false;
+		++window;
+		++exchanges;
+		return true;
+	}
 	if (auditEnergy) {
 		// The FEM applies the sent forces over the step that produced `received`; its displacement over
 		// that step starts from the previous FEM state (JIT: window start; predictive: last received).
@@ -331,28 +479,37 @@ void FemCouplingEngine::exchange()
 	std::fill(forceSum.begin(), forceSum.end(), 0.0);
 	++window;
 	++exchanges;
+	return true;
 }
 
 void FemCouplingEngine::action()
 {
 	try {
 		// Connecting here means the facets missed this step's contact evaluation; the window starts now.
-		if (!connected) connect();
+		bool windowStarts = false;
+		if (!connected) {
+			connect();
+			windowStarts = true;
+		}
 		// Forces of this step's contact evaluation belong to the configuration at t_i + stepsInWindow*dt.
+		const bool everyStep = averageForces || auditEnergy || implicitWindow;
 		if (useHierarchy()) hierarchyContacts(stepForces);
-		else if (stepsInWindow > 0 && (averageForces || auditEnergy)) {
+		else if (stepsInWindow > 0 && everyStep) {
 			const auto mapping = Clock::now();
 			collectForces(stepForces);
 			mappingTime += secondsSince(mapping);
 		}
-		if (stepsInWindow > 0 && (averageForces || auditEnergy)) accumulateStep();
+		if (stepsInWindow > 0 && everyStep) accumulateStep();
 		if (stepsInWindow == subcycles) {
 			const auto   start      = Clock::now();
 			const double waitBefore = waitTime;
-			exchange();
+			windowStarts            = exchange();
 			bridgeTime += secondsSince(start) - (waitTime - waitBefore);
 			stepsInWindow = 0;
+			// Implicit: back to the window's start (states, contacts, forces, clock) for another pass.
+			if (!windowStarts) restoreCheckpoint();
 		}
+		if (implicitWindow && windowStarts) saveCheckpoint();
 		++stepsInWindow;
 		placeSurface(stepsInWindow * scene->dt, true);
 	} catch (const railcosim::Error& e) {

@@ -12,6 +12,7 @@
 
 namespace railcosim {
 class DemParticipant;
+class ImplicitWindowIteration;
 struct NodalKinematics;
 namespace kernels {
 	class SurfaceTopology;
@@ -41,10 +42,27 @@ public:
 		"window is the FEM time step; the DEM performs :yref:`FemCouplingEngine.subcycles` steps per window and "
 		":yref:`Omega.dt` is set to femTimeStep/subcycles at connection. Schemes: ``justInTime`` (DEM first, surface "
 		"extrapolated with P+V t+A t^2/2 from the last received state) and ``predictive`` (FEM first, surface moved "
-		"linearly between the FEM positions at the window ends). The FEM solver must use the same scheme.",
+		"linearly between the FEM positions at the window ends) and ``implicit`` (DEM first; the window is repeated from a "
+		"checkpoint of the scene until the FEM end state agrees with the one the surface was moved to, with Aitken relaxation; "
+		"see :yref:`FemCouplingEngine.implicitTolerance`). The FEM solver must use the same scheme.\n\n"
+		"Implicit scheme and the rest of the scene: a repeated window restores body states, interactions, forces, "
+		":yref:`Omega.time` and :yref:`Omega.iter` as they were when the window started, so periodic engines "
+		"(:yref:`PyRunner` with iterPeriod) fire once per accepted window. Engines with private per-body state "
+		"(e.g. :yref:`QuaternionIntegrator`) are not rolled back.",
 		((string, endpoint, "", , "ZeroMQ endpoint of the FEM participant, e.g. ``ipc:///tmp/railcosim.sock`` or ``tcp://127.0.0.1:5555``."))
 		((string, participantName, "dem", , "Name of this participant, shown in every message of the peer."))
-		((string, scheme, "justInTime", , "Coupling scheme: ``justInTime`` or ``predictive``."))
+		((string, scheme, "justInTime", , "Coupling scheme: ``justInTime``, ``predictive`` or ``implicit``."))
+		((Real, implicitTolerance, 1e-3, , "``implicit``: a window is accepted when the rms difference between the FEM's end positions and those the surface was moved to is at most implicitTolerance times the rms interface displacement since t=0 plus :yref:`FemCouplingEngine.implicitAbsoluteTolerance`."))
+		((Real, implicitAbsoluteTolerance, 1e-14, , "``implicit``: absolute floor of the convergence test [m] (rms over the interface values)."))
+		((int, implicitMaxIterations, 30, , "``implicit``: passes per window; the last one is then accepted and counted in :yref:`FemCouplingEngine.unconvergedWindows`."))
+		((Real, implicitRelaxation, 0.5, , "``implicit``: relaxation factor of a window's first corrective pass (and of every pass when :yref:`FemCouplingEngine.aitken` is off), in (0, 1]."))
+		((bool, aitken, true, , "``implicit``: dynamic Aitken relaxation of the interface positions."))
+		((long, implicitPasses, 0, Attr::readonly, "``implicit``: DEM passes over all windows so far (a window that converges at once counts 1)."))
+		((long, lastWindowPasses, 0, Attr::readonly, "``implicit``: passes the last accepted window needed."))
+		((long, maxWindowPasses, 0, Attr::readonly, "``implicit``: most passes any window needed."))
+		((long, unconvergedWindows, 0, Attr::readonly, "``implicit``: windows accepted after implicitMaxIterations passes without meeting the tolerance."))
+		((Real, lastResidual, 0, Attr::readonly, "``implicit``: rms position residual of the last judged pass [m]."))
+		((Real, checkpointTime, 0, Attr::readonly, "``implicit``: time spent saving and restoring the scene checkpoint [s]."))
 		((string, contactModel, "facets", , "How particles touch the surface. ``facets``: one :yref:`Facet` body per triangle, contacts handled by the scene's own :yref:`InteractionLoop` functors (a sphere over an edge between two triangles gets a contact from each). ``hierarchy``: the engine itself finds sphere-surface contacts with the facet > edge > vertex hierarchy (one contact per touching surface patch, shadowed contacts removed), contact-point velocity interpolated from the nodal velocities, Hertz-Mindlin force from the shared kernels (:yref:`FemCouplingEngine.restitution`, friction and moduli from the particle and surface materials); no facet bodies are inserted."))
 		((Real, restitution, 0.5, , "``hierarchy`` model: coefficient of restitution of particle-surface impacts [-], turned into a Hertzian damping ratio."))
 		((long, surfaceContacts, 0, Attr::readonly, "``hierarchy`` model: number of particle-surface contacts at the last step."))
@@ -84,8 +102,10 @@ private:
 	void               accumulateStep();
 	void               hierarchyContacts(std::vector<double>& nodal);
 	bool               useHierarchy() const;
-	void               exchange();
-	void               startWindow(const railcosim::NodalKinematics& start);
+	bool               exchange(); // false: the implicit scheme repeats the window
+	void               saveCheckpoint();
+	void               restoreCheckpoint();
+	bool               isImplicit() const;
 
 	std::shared_ptr<railcosim::DemParticipant>   participant;
 	std::shared_ptr<railcosim::NodalKinematics>  windowStart;  // kinematics the surface motion is extrapolated from
@@ -101,6 +121,12 @@ private:
 	std::shared_ptr<railcosim::kernels::SurfaceTriangleGrid> grid;
 	std::shared_ptr<std::map<Body::id_t, std::vector<ContactHistory>>> history;
 	bool                                         predictive    = false;
+	// implicit scheme: the window iteration, the accepted FEM state at the window start, and a scene checkpoint
+	struct Checkpoint;
+	std::shared_ptr<railcosim::ImplicitWindowIteration> implicitWindow;
+	std::shared_ptr<railcosim::NodalKinematics>         accepted;
+	std::shared_ptr<Checkpoint>                         checkpoint;
+	bool                                                surfaceTouched = false; // any interface force during this pass
 };
 REGISTER_SERIALIZABLE(FemCouplingEngine);
 

@@ -2,7 +2,9 @@
 # Oracles: the lumped nodal forces add up to the sphere's weight, their centroid lies under the sphere
 # (moment conservation), and the surface comes back displaced by F/k at every node (the stand-in's
 # nodes are independent springs), with the facets following the received node positions.
-# Run: ./railcosim yade yade_engines/checks/two_facet_round_trip.py PATH/TO/railcosim_dummy_fem [facets|hierarchy]
+# With the implicit scheme also: every window converges, windows are repeated (more passes than windows),
+# and the rolled-back clock stays consistent (O.time = O.iter * O.dt after thousands of rollbacks).
+# Run: ./railcosim yade yade_engines/checks/two_facet_round_trip.py PATH/TO/railcosim_dummy_fem [facets|hierarchy] [SCHEME]
 import os
 import subprocess
 import sys
@@ -10,10 +12,12 @@ import uuid
 
 dummy_fem = sys.argv[1]
 contact_model = sys.argv[2] if len(sys.argv) > 2 else "facets"
+scheme = sys.argv[3] if len(sys.argv) > 3 else "justInTime"
 stiffness = 2.0e5  # N/m per node
 endpoint = f"ipc:///tmp/railcosim-check-{os.getpid()}-{uuid.uuid4().hex[:6]}.sock"
 fem = subprocess.Popen([dummy_fem, "--endpoint", endpoint, "--nx", "2", "--ny", "2", "--spacing", "0.2",
-                        "--dt", "2e-4", "--mass", "0.05", "--stiffness", str(stiffness), "--timeout", "30"])
+                        "--dt", "2e-4", "--mass", "0.05", "--stiffness", str(stiffness), "--timeout", "30",
+                        "--scheme", scheme])
 failures = []
 
 
@@ -27,7 +31,7 @@ radius, centre_xy = 0.02, (0.13, 0.06)
 mat = O.materials.append(FrictMat(young=5e7, poisson=0.3, density=7800, frictionAngle=0.5))
 sphere = O.bodies.append(utils.sphere((centre_xy[0], centre_xy[1], radius * 1.01), radius, material=mat))
 coupling = FemCouplingEngine(endpoint=endpoint, material=O.materials[mat], timeout=30, contactModel=contact_model,
-                             label="coupling")
+                             scheme=scheme, implicitTolerance=1e-4, label="coupling")
 O.engines = [ForceResetter(), InsertionSortCollider([Bo1_Sphere_Aabb(), Bo1_Facet_Aabb()]),
              InteractionLoop([Ig2_Facet_Sphere_ScGeom()], [Ip2_FrictMat_FrictMat_FrictPhys()],
                              [Law2_ScGeom_FrictPhys_CundallStrack()]),
@@ -75,6 +79,14 @@ if contact_model == "facets":
     check(gap < 1e-9 + 2 * O.dt * max(v.norm() for v in coupling.nodeVelocities), f"facet vertices on the nodes (gap {gap:.2e} m)")
 else:
     check(coupling.surfaceContacts == 1, f"one hierarchy contact under the sphere (got {coupling.surfaceContacts})")
+if scheme == "implicit":
+    windows = coupling.window
+    check(coupling.unconvergedWindows == 0, f"every window converged ({coupling.unconvergedWindows} did not)")
+    check(windows < coupling.implicitPasses <= coupling.implicitMaxIterations * windows,
+          f"{coupling.implicitPasses} passes over {windows} windows (some repeated, at most {coupling.maxWindowPasses} each)")
+    # Each repeated window winds O.iter and O.time back together; rounding of the summed dt is all that may differ.
+    check(abs(O.time - O.iter * O.dt) <= 1e-9 * O.time, f"O.time {O.time:.9f} s = O.iter x O.dt {O.iter * O.dt:.9f} s")
+    check(coupling.checkpointTime > 0, f"checkpoints cost {coupling.checkpointTime:.3f} s")
 check(fem.returncode == 0, f"stand-in FEM exited cleanly (code {fem.returncode})")
 print("two_facet_round_trip:", "FAILED" if failures else "passed", flush=True)
 sys.exit(1 if failures else 0)

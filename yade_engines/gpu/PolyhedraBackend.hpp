@@ -26,6 +26,7 @@ struct HostData {
     int maxPairs = 0, maxWalls = 0;
     std::vector<ContactSlot> pairSlots, pairSlotsPrevious, wallSlots, wallSlotsPrevious;
     std::vector<ContactOutput> pairOutput, wallOutput;
+    std::vector<ContactGeometry> wallGeometry;
     std::vector<std::int32_t> pairCount, pairCountPrevious, wallCount, wallCountPrevious;
     std::vector<std::uint32_t> cellKey;
     std::vector<std::int32_t> sortedStone, cellStart, cellEnd;

@@ -19,6 +19,7 @@ void HostData::allocate() {
     wallSlotsPrevious.assign(n * maxWalls, empty);
     pairOutput.assign(n * maxPairs, ContactOutput{});
     wallOutput.assign(n * maxWalls, ContactOutput{});
+    wallGeometry.assign(n * maxWalls, ContactGeometry{});
     pairCount.assign(n, 0);
     pairCountPrevious.assign(n, 0);
     wallCount.assign(n, 0);
@@ -63,6 +64,7 @@ SystemView HostData::view() {
     v.pairCount = pairCount.data();
     v.wallSlots = wallSlots.data();
     v.wallOutput = wallOutput.data();
+    v.wallGeometry = wallGeometry.data();
     v.wallCount = wallCount.data();
     v.cellKey = cellKey.data();
     v.sortedStone = sortedStone.data();

@@ -1,9 +1,9 @@
-// CUDA backend: the per-stone functions of PolyhedraStep.hpp as kernels, state resident on the device,
-// one step = predict, forces, correct (+ grid rebuild), replayed as CUDA Graphs of one rebuild interval.
+// CUDA backend: the step functions of PolyhedraStep.hpp as kernels, state resident on the device; one step =
+// predict, pair filter + narrow phase, wall filter + narrow phase + law, correct (+ grid rebuild), replayed
+// as CUDA Graphs of one rebuild interval.
 #include <cub/device/device_radix_sort.cuh>
 #include <cuda_runtime.h>
 
-#include <cstdlib>
 #include <string>
 #include <vector>
 
@@ -73,32 +73,46 @@ __device__ inline void addActiveContactsOfWarp(const SystemView& s, unsigned val
     if ((threadIdx.x & 31u) == 0 && total > 0) atomicAdd(&s.counters[counterActive], static_cast<unsigned long long>(total));
 }
 
-// Pair candidates, first pass: one thread per slot, numbered slot-major (thread t is slot k = t / N of
-// stone i = t mod N), so that whole warps past the longest lists of their stones retire at once. Slots
-// not proven apart by the cheap tests are appended to `survivors` (one atomic per warp).
-__global__ void __launch_bounds__(blockSize) pairFilterKernel(SystemView s, std::uint32_t* survivors, unsigned* survivorCount) {
-    const long long t = static_cast<long long>(blockIdx.x) * blockDim.x + threadIdx.x;
-    const int k = static_cast<int>(t / s.stoneCount);
-    const int i = static_cast<int>(t - static_cast<long long>(k) * s.stoneCount);
-    bool survives = false;
-    long long index = 0;
-    if (k < s.maxPairs && k < s.pairCount[i]) {
-        index = static_cast<long long>(i) * s.maxPairs + k;
-        survives = !pairProvenApart(s, i, index);
-    }
-    const unsigned mask = __ballot_sync(0xffffffffu, survives);
+// Appends `index` to `list` for the lanes where `keep` holds (one atomic per warp). Every lane must call it.
+__device__ inline void appendWhere(bool keep, long long index, std::uint32_t* list, unsigned* count) {
+    const unsigned mask = __ballot_sync(0xffffffffu, keep);
     if (mask == 0) return;
     const unsigned lane = threadIdx.x & 31u;
     const unsigned leader = __ffs(mask) - 1;
     unsigned base = 0;
-    if (lane == leader) base = atomicAdd(survivorCount, static_cast<unsigned>(__popc(mask)));
+    if (lane == leader) base = atomicAdd(count, static_cast<unsigned>(__popc(mask)));
     base = __shfl_sync(0xffffffffu, base, leader);
-    if (survives) survivors[base + __popc(mask & ((1u << lane) - 1u))] = static_cast<std::uint32_t>(index);
+    if (keep) list[base + __popc(mask & ((1u << lane) - 1u))] = static_cast<std::uint32_t>(index);
 }
 
-// Pair candidates, second pass: GJK and the contact law for the survivors, one per thread (grid-stride
-// over a grid of resident blocks, since the survivor count is only known on the device).
-__global__ void __launch_bounds__(blockSize) pairContactKernel(SystemView s, const std::uint32_t* survivors, const unsigned* survivorCount) {
+// Candidates, first pass: one thread per slot, numbered slot-major (thread t is slot k = t / N of stone
+// i = t mod N), so that whole warps past the longest lists of their stones retire at once. Slots not
+// proven apart by the cheap tests are appended to `survivors`. Wall = true: the wall candidate lists.
+template <bool Wall>
+__global__ void __launch_bounds__(blockSize) filterKernel(SystemView s, std::uint32_t* survivors, unsigned* survivorCount) {
+    const long long t = static_cast<long long>(blockIdx.x) * blockDim.x + threadIdx.x;
+    const int k = static_cast<int>(t / s.stoneCount);
+    const int i = static_cast<int>(t - static_cast<long long>(k) * s.stoneCount);
+    const int perStone = Wall ? s.maxWalls : s.maxPairs;
+    bool survives = false;
+    long long index = 0;
+    if (k < perStone && k < (Wall ? s.wallCount[i] : s.pairCount[i])) {
+        index = static_cast<long long>(i) * perStone + k;
+        survives = Wall ? !wallProvenApart(s, i, index) : !pairProvenApart(s, i, index);
+    }
+    appendWhere(survives, index, survivors, survivorCount);
+}
+
+// Second pass: GJK (and for pairs the contact law) of the survivors, one per thread (grid-stride over a grid
+// of resident blocks, since the survivor count is only known on the device). Minimum resident blocks per
+// multiprocessor caps its registers (1 → 254, 3 → 168 with spills: 6 % slower at 1e6 stones, measured);
+// override with -DRAILCOSIM_POLYHEDRA_CONTACT_MIN_BLOCKS=n.
+#ifndef RAILCOSIM_POLYHEDRA_CONTACT_MIN_BLOCKS
+#define RAILCOSIM_POLYHEDRA_CONTACT_MIN_BLOCKS 1
+#endif
+template <bool Wall>
+__global__ void __launch_bounds__(blockSize, RAILCOSIM_POLYHEDRA_CONTACT_MIN_BLOCKS)
+    narrowPhaseKernel(SystemView s, const std::uint32_t* survivors, const unsigned* survivorCount) {
     const unsigned count = *survivorCount;
     const unsigned stride = gridDim.x * blockDim.x;
     unsigned active = 0;
@@ -108,26 +122,17 @@ __global__ void __launch_bounds__(blockSize) pairContactKernel(SystemView s, con
     for (unsigned t = first, w = warpFirst; w < count; t += stride, w += stride) {
         if (t < count) {
             const long long index = survivors[t];
-            active += pairContact(s, static_cast<int>(index / s.maxPairs), index) ? 1u : 0u;
+            if (Wall) {
+                wallNarrowPhase(s, static_cast<int>(index / s.maxWalls), index);
+            } else {
+                active += pairContact(s, static_cast<int>(index / s.maxPairs), index) ? 1u : 0u;
+            }
         }
     }
-    addActiveContactsOfWarp(s, active);
+    if (!Wall) addActiveContactsOfWarp(s, active);
 }
 
-// Variant for measurements: both passes fused in one kernel over all slots (no survivor list).
-__global__ void __launch_bounds__(blockSize) pairFusedKernel(SystemView s) {
-    const long long t = static_cast<long long>(blockIdx.x) * blockDim.x + threadIdx.x;
-    const int k = static_cast<int>(t / s.stoneCount);
-    const int i = static_cast<int>(t - static_cast<long long>(k) * s.stoneCount);
-    unsigned active = 0;
-    if (k < s.maxPairs && k < s.pairCount[i]) {
-        const long long index = static_cast<long long>(i) * s.maxPairs + k;
-        if (!pairProvenApart(s, i, index) && pairContact(s, i, index)) active = 1;
-    }
-    addActiveContactsOfWarp(s, active);
-}
-
-// Wall triangles: one thread per stone (the coplanar-duplicate test needs all of a stone's wall contacts).
+// Wall contact law, one thread per stone (the coplanar-duplicate test needs all of a stone's wall contacts).
 __global__ void __launch_bounds__(blockSize) wallForcesKernel(SystemView s) {
     const int i = blockIdx.x * blockDim.x + threadIdx.x;
     unsigned active = 0;
@@ -156,16 +161,14 @@ __global__ void __launch_bounds__(blockSize) neighbourKernel(SystemView s, const
     if (i < s.stoneCount) buildNeighbours(s, i, previousPairs, previousPairCount, previousWalls, previousWallCount);
 }
 
+constexpr auto pairFilterKernel = filterKernel<false>;
+constexpr auto wallFilterKernel = filterKernel<true>;
+constexpr auto pairNarrowPhaseKernel = narrowPhaseKernel<false>;
+constexpr auto wallNarrowPhaseKernel = narrowPhaseKernel<true>;
+
 class CudaBackend final : public PolyhedraBackend {
 public:
-    CudaBackend() {
-        check(cudaStreamCreateWithFlags(&stream_, cudaStreamNonBlocking), "cudaStreamCreate");
-        // Measurement switches (docs/benchmarks.md): the fused one-pass pair kernel, the contact grid size.
-        const char* mode = std::getenv("RAILCOSIM_POLYHEDRA_PAIR_KERNEL");
-        fusedPairKernel_ = mode != nullptr && std::string(mode) == "fused";
-        const char* waves = std::getenv("RAILCOSIM_POLYHEDRA_CONTACT_WAVES");
-        if (waves != nullptr && std::atoi(waves) > 0) contactBlocksPerResidentBlock_ = std::atoi(waves);
-    }
+    CudaBackend() { check(cudaStreamCreateWithFlags(&stream_, cudaStreamNonBlocking), "cudaStreamCreate"); }
     ~CudaBackend() override {
         for (auto& g : graphs_)
             if (g) cudaGraphExecDestroy(g);
@@ -204,16 +207,18 @@ public:
         cellEnd_.upload(d.cellEnd, stream_);
         counters_.resize(counterCount);
         const long long slots = static_cast<long long>(d.stoneCount) * d.maxPairs;
-        if (slots >= (1ll << 31))
-            throw Error("polyhedra CUDA backend: stones × maxNeighbours = " + std::to_string(slots) +
-                        " does not fit the 32-bit survivor list; lower maxNeighbours or split the system");
+        if (slots >= (1ll << 31) || static_cast<long long>(d.stoneCount) * d.maxWalls >= (1ll << 31))
+            throw Error("polyhedra CUDA backend: stones × maxNeighbours (or maxWallNeighbours) = " + std::to_string(slots) +
+                        " does not fit the 32-bit candidate lists; lower maxNeighbours or split the system");
         survivors_.resize(static_cast<std::size_t>(slots > 0 ? slots : 1));
-        survivorCount_.resize(1);
+        wallSurvivors_.resize(static_cast<std::size_t>(d.stoneCount) * (d.maxWalls > 0 ? d.maxWalls : 1));
+        wallGeometry_.resize(static_cast<std::size_t>(d.stoneCount) * (d.maxWalls > 0 ? d.maxWalls : 1));
+        survivorCount_.resize(2);  // pairs, walls
         int device = 0, multiprocessors = 0, perMultiprocessor = 0;
         check(cudaGetDevice(&device), "cudaGetDevice");
         check(cudaDeviceGetAttribute(&multiprocessors, cudaDevAttrMultiProcessorCount, device), "device attribute");
-        check(cudaOccupancyMaxActiveBlocksPerMultiprocessor(&perMultiprocessor, pairContactKernel, blockSize, 0), "occupancy query");
-        contactBlocks_ = multiprocessors * (perMultiprocessor > 0 ? perMultiprocessor : 1) * contactBlocksPerResidentBlock_;
+        check(cudaOccupancyMaxActiveBlocksPerMultiprocessor(&perMultiprocessor, pairNarrowPhaseKernel, blockSize, 0), "occupancy query");
+        contactBlocks_ = multiprocessors * (perMultiprocessor > 0 ? perMultiprocessor : 1);
         std::size_t bytes = 0;
         check(cub::DeviceRadixSort::SortPairs(nullptr, bytes, rawKey_.get(), cellKey_.get(), rawStone_.get(), sortedStone_.get(),
                                               d.stoneCount, 0, sortBits(d.tableSize), stream_),
@@ -327,6 +332,7 @@ private:
         v.pairCount = pairCount_[current_].get();
         v.wallSlots = wallSlots_[current_].get();
         v.wallOutput = wallOutput_.get();
+        v.wallGeometry = wallGeometry_.get();
         v.wallCount = wallCount_[current_].get();
         v.cellKey = cellKey_.get();
         v.sortedStone = sortedStone_.get();
@@ -368,19 +374,22 @@ private:
     // Contact forces of the state in `v`: pair candidates (filter, then GJK and contact law on the survivors),
     // then wall triangles.
     void enqueueForces(HostData& d, const SystemView& v) {
+        check(cudaMemsetAsync(survivorCount_.get(), 0, 2 * sizeof(unsigned), stream_), "memset");
         const long long slots = static_cast<long long>(d.stoneCount) * d.maxPairs;
         const int slotBlocks = static_cast<int>((slots + blockSize - 1) / blockSize);
-        if (slots > 0 && fusedPairKernel_) {
-            pairFusedKernel<<<slotBlocks, blockSize, 0, stream_>>>(v);
-            check(cudaGetLastError(), "pair kernel");
-        } else if (slots > 0) {
-            check(cudaMemsetAsync(survivorCount_.get(), 0, sizeof(unsigned), stream_), "memset");
+        if (slots > 0) {
             pairFilterKernel<<<slotBlocks, blockSize, 0, stream_>>>(v, survivors_.get(), survivorCount_.get());
             check(cudaGetLastError(), "pair filter kernel");
-            pairContactKernel<<<contactBlocks_, blockSize, 0, stream_>>>(v, survivors_.get(), survivorCount_.get());
+            pairNarrowPhaseKernel<<<contactBlocks_, blockSize, 0, stream_>>>(v, survivors_.get(), survivorCount_.get());
             check(cudaGetLastError(), "pair contact kernel");
         }
-        if (d.triangleCount() > 0) {
+        const long long wallSlots = static_cast<long long>(d.stoneCount) * d.maxWalls;
+        if (d.triangleCount() > 0 && wallSlots > 0) {
+            wallFilterKernel<<<static_cast<int>((wallSlots + blockSize - 1) / blockSize), blockSize, 0, stream_>>>(v, wallSurvivors_.get(),
+                                                                                                             survivorCount_.get() + 1);
+            check(cudaGetLastError(), "wall filter kernel");
+            wallNarrowPhaseKernel<<<contactBlocks_, blockSize, 0, stream_>>>(v, wallSurvivors_.get(), survivorCount_.get() + 1);
+            check(cudaGetLastError(), "wall narrow-phase kernel");
             wallForcesKernel<<<blocks(d.stoneCount), blockSize, 0, stream_>>>(v);
             check(cudaGetLastError(), "wall force kernel");
         }
@@ -420,11 +429,10 @@ private:
     DeviceArray<std::uint32_t> cellKey_, rawKey_;
     DeviceArray<unsigned long long> counters_;
     DeviceArray<unsigned char> sortTemp_;
-    DeviceArray<std::uint32_t> survivors_;
+    DeviceArray<std::uint32_t> survivors_, wallSurvivors_;
+    DeviceArray<ContactGeometry> wallGeometry_;
     DeviceArray<unsigned> survivorCount_;
-    int contactBlocks_ = 1;
-    int contactBlocksPerResidentBlock_ = 1;
-    bool fusedPairKernel_ = false;
+    int contactBlocks_ = 1;  // resident blocks of the narrow-phase kernels (grid-stride over the survivors)
 };
 
 }  // namespace

@@ -392,6 +392,10 @@ RAILCOSIM_HOST_DEVICE inline CoreDistance coreDistance(const ConvexCore& A, cons
             result.intersecting = true;
             break;
         }
+        // No progress: in exact arithmetic every step brings v strictly closer to the origin. Far from the
+        // origin of the coordinates (a stone on a large floor triangle) roundoff can keep the relative test
+        // above from ever passing while GJK cycles through coplanar supports; stop then, at roundoff level.
+        if (kernels::dot(v, v) >= vv) break;
     }
     result.iterations = iteration;
     Vec3 pa = weights.w0 * vertexWorld(A, s.p0.a), pb = weights.w0 * vertexWorld(B, s.p0.b);

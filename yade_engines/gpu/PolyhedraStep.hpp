@@ -13,6 +13,10 @@
 #if defined(__CUDA_ARCH__)
 #define RAILCOSIM_POLYHEDRA_DEVICE_PASS 1
 #endif
+#if defined(__CUDACC__)
+#include <cooperative_groups.h>
+#include <cooperative_groups/reduce.h>
+#endif
 
 namespace railcosim::polyhedra {
 
@@ -39,6 +43,14 @@ struct ContactSlot {
 struct ContactOutput {
     double point[3];
     double force[3];          // on the partner [N]
+};
+
+// Narrow-phase result of one candidate (kept between the two passes over wall candidates).
+struct ContactGeometry {
+    bool touching;
+    double overlap;  // δ [m]
+    Vec3 normal;     // A -> B
+    Vec3 point;
 };
 
 // Counters written by device code; index meaning below.
@@ -88,6 +100,7 @@ struct SystemView {
     std::int32_t* pairCount;
     ContactSlot* wallSlots;      // stoneCount × maxWalls
     ContactOutput* wallOutput;
+    ContactGeometry* wallGeometry;  // stoneCount × maxWalls: narrow-phase result of the current step
     std::int32_t* wallCount;
     // hashed uniform grid
     std::uint32_t* cellKey;      // per stone, sorted in place with sortedStone
@@ -326,13 +339,6 @@ struct ContactKinematics {
     Vec3 centre;     // reference point for the lever arm [m]
 };
 
-struct ContactGeometry {
-    bool touching;
-    double overlap;  // δ [m]
-    Vec3 normal;     // A -> B
-    Vec3 point;
-};
-
 struct ContactResult {
     bool active;
     double overlap;
@@ -509,15 +515,80 @@ RAILCOSIM_HOST_DEVICE inline bool pairContact(const SystemView& s, int i, long l
 }
 
 // ---------------------------------------------------------------------------------------------------
-// Wall triangles of stone i: one loop per stone (few stones touch walls), because one flat region of the
-// surface split into several coplanar triangles must act once, not once per triangle: a contact with the
-// same normal and overlap as an accepted one is a duplicate (active = 2). Returns the active contacts.
+// Wall triangles, in two passes: the narrow phase per candidate slot (`index` = i · maxWalls + k; on the
+// GPU one thread each), its result kept in wallGeometry; then the contact law per stone, because one flat
+// region of the surface split into several coplanar triangles must act once, not once per triangle: a
+// contact with the same normal and overlap as an accepted one is a duplicate (active = 2).
 // ---------------------------------------------------------------------------------------------------
+RAILCOSIM_HOST_DEVICE inline ConvexCore triangleCore(const SystemView& s, int triangle) {
+    // The triangle as a 3-vertex core read straight from the node array through its connectivity.
+    return ConvexCore{s.nodePosition, 3, Rotation{{1, 0, 0, 0, 1, 0, 0, 0, 1}}, Vec3{0.0, 0.0, 0.0}, s.triangles + 3 * triangle};
+}
+
+// Point of triangle t nearest to x: lever arm and barycentric wall velocity of a wall contact.
+RAILCOSIM_HOST_DEVICE inline Vec3 nearestOnTriangle(const SystemView& s, int t, const Vec3& x) {
+    return closestPointOnTriangle(x, load3(s.nodePosition, s.triangles[3 * t]), load3(s.nodePosition, s.triangles[3 * t + 1]),
+                                  load3(s.nodePosition, s.triangles[3 * t + 2]));
+}
+
+// True when wall candidate `index` of stone i is proven apart along the slot's axis (history released,
+// no-contact geometry recorded).
+RAILCOSIM_HOST_DEVICE inline bool wallProvenApart(const SystemView& s, int i, long long index) {
+    const ContactSlot slot = s.wallSlots[index];
+    if (!hasSlotNormal(slot)) return false;
+    if (!provenApartAlongSlotAxis(stoneCore(s, i), triangleCore(s, slot.partner), s.shapes[s.shape[i]].dilationRadius, slot)) return false;
+    if (slot.active) {
+        ContactSlot& slotRef = s.wallSlots[index];
+        slotRef.active = 0;
+        slotRef.elasticShear[0] = slotRef.elasticShear[1] = slotRef.elasticShear[2] = 0.0;
+        slotRef.overlap = 0.0;
+    }
+    s.wallGeometry[index].touching = false;
+    return true;
+}
+
+// Adds a wall contact's force to the sums of triangle t (force, |F| x_c and |F|). Many stones rest on one
+// floor triangle: on the device the lanes of a warp that hit the same triangle first add among themselves,
+// so that one atomic per triangle and warp reaches each shared address instead of one per contact.
+RAILCOSIM_HOST_DEVICE inline void accumulateTriangleSums(const SystemView& s, int t, const Vec3& force, const Vec3& point) {
+    const double magnitude = kernels::norm(force);
+    const Vec3 weighted = magnitude * point;
+#if defined(RAILCOSIM_POLYHEDRA_DEVICE_PASS)
+    namespace cg = cooperative_groups;
+    const cg::coalesced_group same = cg::labeled_partition(cg::coalesced_threads(), t);
+    const double values[7] = {force.x, force.y, force.z, weighted.x, weighted.y, weighted.z, magnitude};
+    double* const targets[7] = {s.triangleForceSum + 3 * t, s.triangleForceSum + 3 * t + 1, s.triangleForceSum + 3 * t + 2,
+                                s.trianglePointSum + 3 * t, s.trianglePointSum + 3 * t + 1, s.trianglePointSum + 3 * t + 2,
+                                s.triangleWeightSum + t};
+#pragma unroll
+    for (int c = 0; c < 7; ++c) {
+        const double sum = cg::reduce(same, values[c], cg::plus<double>());
+        if (same.thread_rank() == 0) atomicAdd(targets[c], sum);
+    }
+#else
+    atomicAccumulate3(s.triangleForceSum, t, force);
+    atomicAccumulate3(s.trianglePointSum, t, weighted);
+    atomicAccumulate(s.triangleWeightSum + t, magnitude);
+#endif
+}
+
+// Narrow phase of wall candidate `index` of stone i (GJK against the triangle), kept in wallGeometry.
+RAILCOSIM_HOST_DEVICE inline void wallNarrowPhase(const SystemView& s, int i, long long index) {
+    ContactSlot slot = s.wallSlots[index];
+    const ConvexCore coreA = stoneCore(s, i);
+    const Vec3 nearest = nearestOnTriangle(s, slot.partner, coreA.position);
+    const ContactGeometry g = contactGeometry(coreA, triangleCore(s, slot.partner), s.shapes[s.shape[i]].dilationRadius, 0.0,
+                                              nearest - coreA.position, s.featureTolerance, slot, s.counters);
+    if (!g.touching) s.wallSlots[index] = slot;  // released
+    s.wallGeometry[index] = g;
+}
+
+// Contact law of the wall contacts of stone i found by the narrow phase; returns the active contacts.
 RAILCOSIM_HOST_DEVICE inline int stoneWallForces(const SystemView& s, int i) {
     const int total = s.wallCount[i];
     if (total == 0) return 0;
     const ShapeData& shapeA = s.shapes[s.shape[i]];
-    const ConvexCore coreA = stoneCore(s, i);
+    const Vec3 xA = load3(s.position, i);
     Vec3 forceA{0.0, 0.0, 0.0}, torqueA{0.0, 0.0, 0.0};
     int active = 0;
     constexpr int maxAccepted = 4;
@@ -526,28 +597,13 @@ RAILCOSIM_HOST_DEVICE inline int stoneWallForces(const SystemView& s, int i) {
     int acceptedCount = 0;
     for (int k = 0; k < total; ++k) {
         const long long index = static_cast<long long>(i) * s.maxWalls + k;
+        const ContactGeometry g = s.wallGeometry[index];
+        if (!g.touching) continue;
         ContactSlot slot = s.wallSlots[index];
         const int partner = slot.partner;
-        // The triangle as a 3-vertex core read straight from the node array through its connectivity.
-        const ConvexCore coreB{s.nodePosition, 3, Rotation{{1, 0, 0, 0, 1, 0, 0, 0, 1}}, Vec3{0.0, 0.0, 0.0}, s.triangles + 3 * partner};
-        if (provenApartAlongSlotAxis(coreA, coreB, shapeA.dilationRadius, slot)) {
-            if (slot.active) {
-                slot.active = 0;
-                slot.elasticShear[0] = slot.elasticShear[1] = slot.elasticShear[2] = 0.0;
-                slot.overlap = 0.0;
-                s.wallSlots[index] = slot;
-            }
-            continue;
-        }
         const int n0 = s.triangles[3 * partner], n1 = s.triangles[3 * partner + 1], n2 = s.triangles[3 * partner + 2];
         const Vec3 a = load3(s.nodePosition, n0), b = load3(s.nodePosition, n1), c = load3(s.nodePosition, n2);
-        // Point of the triangle nearest to the stone centre: lever arm and barycentric wall velocity.
-        const Vec3 nearest = closestPointOnTriangle(coreA.position, a, b, c);
-        const ContactGeometry g = contactGeometry(coreA, coreB, shapeA.dilationRadius, 0.0, nearest - coreA.position, s.featureTolerance, slot, s.counters);
-        if (!g.touching) {
-            s.wallSlots[index] = slot;
-            continue;
-        }
+        const Vec3 nearest = closestPointOnTriangle(xA, a, b, c);
         const Vec3 e0 = b - a, e1 = c - a, e2 = nearest - a;
         const double d00 = kernels::dot(e0, e0), d01 = kernels::dot(e0, e1), d11 = kernels::dot(e1, e1);
         const double d20 = kernels::dot(e2, e0), d21 = kernels::dot(e2, e1);
@@ -556,7 +612,7 @@ RAILCOSIM_HOST_DEVICE inline int stoneWallForces(const SystemView& s, int i) {
         const double wc = denominator > 0.0 ? (d00 * d21 - d01 * d20) / denominator : 0.0;
         const Vec3 velocity = (1.0 - wb - wc) * load3(s.nodeVelocity, n0) + wb * load3(s.nodeVelocity, n1) + wc * load3(s.nodeVelocity, n2);
         // A flat rigid wall has no rotation, so its lever arm is irrelevant; no dilation: R* = r_A, m* = m_A.
-        const ContactKinematics kinematicsA{load3(s.velocity, i), s.rotation[i].angularVelocity, coreA.position};
+        const ContactKinematics kinematicsA{load3(s.velocity, i), s.rotation[i].angularVelocity, xA};
         const ContactKinematics kinematicsB{velocity, Vec3{0.0, 0.0, 0.0}, nearest};
         // A duplicate keeps its tangential spring up to date too (it takes over when its twin separates).
         const Vec3 force = contactForce(g, shapeA.dilationRadius, shapeA.mass, s.wallLaw, kinematicsA, kinematicsB, s.timeStep, slot);
@@ -581,11 +637,8 @@ RAILCOSIM_HOST_DEVICE inline int stoneWallForces(const SystemView& s, int i) {
         store3(out.point, 0, g.point);
         store3(out.force, 0, force);
         forceA -= force;
-        torqueA -= kernels::cross(g.point - coreA.position, force);
-        atomicAccumulate3(s.triangleForceSum, partner, force);
-        const double magnitude = kernels::norm(force);
-        atomicAccumulate3(s.trianglePointSum, partner, magnitude * g.point);
-        atomicAccumulate(s.triangleWeightSum + partner, magnitude);
+        torqueA -= kernels::cross(g.point - xA, force);
+        accumulateTriangleSums(s, partner, force, g.point);
     }
     if (active > 0) {
         atomicAccumulate3(s.force, i, forceA);
@@ -612,6 +665,11 @@ RAILCOSIM_HOST_DEVICE inline void stoneForces(const SystemView& s, int i) {
     for (int k = 0; k < pairCount; ++k) {
         const long long index = static_cast<long long>(i) * s.maxPairs + k;
         if (!pairProvenApart(s, i, index) && pairContact(s, i, index)) ++active;
+    }
+    const int wallCount = s.wallCount[i];
+    for (int k = 0; k < wallCount; ++k) {
+        const long long index = static_cast<long long>(i) * s.maxWalls + k;
+        if (!wallProvenApart(s, i, index)) wallNarrowPhase(s, i, index);
     }
     active += stoneWallForces(s, i);
     addActiveContacts(s, static_cast<unsigned long long>(active));

@@ -15,6 +15,7 @@
 #include <core/Scene.hpp>
 #include <core/State.hpp>
 #include <core/Aabb.hpp>
+#include <lib/pyutil/gil.hpp>
 #include <pkg/common/Facet.hpp>
 #include <pkg/common/NormShearPhys.hpp>
 #include <pkg/common/Sphere.hpp>
@@ -254,6 +255,9 @@ bool FemCouplingEngine::isImplicit() const { return railcosim::parseCouplingSche
 void FemCouplingEngine::saveCheckpoint()
 {
 	const auto start = Clock::now();
+	// YADE objects touch Python while they are (de)serialized, and objects made in Python scripts (states
+	// of bodies created there) must be released with the GIL held.
+	gilLock python;
 	if (!checkpoint) checkpoint = std::make_shared<Checkpoint>();
 	Checkpoint& c = *checkpoint;
 	std::vector<shared_ptr<State>> states(scene->bodies->size());
@@ -284,11 +288,12 @@ void FemCouplingEngine::saveCheckpoint()
 void FemCouplingEngine::restoreCheckpoint()
 {
 	const auto        start = Clock::now();
+	gilLock           python; // see saveCheckpoint()
 	const Checkpoint& c     = *checkpoint;
 	std::vector<shared_ptr<State>>  states;
 	shared_ptr<InteractionContainer> interactions;
 	{
-		std::istringstream in(c.archive);
+		std::istringstream              in(c.archive);
 		boost::archive::binary_iarchive archive(in);
 		archive >> states;
 		archive >> interactions;
@@ -309,11 +314,18 @@ void FemCouplingEngine::restoreCheckpoint()
 		scene->interactions->insert(I);
 	scene->interactions->dirty = true;
 	// Summed forces of the step the window started in: the integrator that runs next applies them again.
+	// Read every current sum first: an addition marks the container unsynchronised for further reads.
 	scene->forces.sync();
+	std::vector<Vector3r> forceChange(c.force.size()), torqueChange(c.force.size());
 	for (size_t id = 0; id < c.force.size(); ++id) {
 		if (!states[id]) continue;
-		scene->forces.addForce(id, c.force[id] - scene->forces.getForce(id));
-		scene->forces.addTorque(id, c.torque[id] - scene->forces.getTorque(id));
+		forceChange[id]  = c.force[id] - scene->forces.getForce(id);
+		torqueChange[id] = c.torque[id] - scene->forces.getTorque(id);
+	}
+	for (size_t id = 0; id < c.force.size(); ++id) {
+		if (!states[id]) continue;
+		scene->forces.addForce(id, forceChange[id]);
+		scene->forces.addTorque(id, torqueChange[id]);
 	}
 	scene->time      = c.time;
 	scene->iter      = c.iter;

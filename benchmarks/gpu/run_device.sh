@@ -29,7 +29,7 @@ for f in yade_engines/gpu/PolyhedraSystem.cpp yade_engines/gpu/PolyhedraCpuBacke
   g++ $common -fopenmp -I/usr/local/cuda/include -c "$f" -o "$build/$(basename "$f" .cpp).o" &
 done
 wait
-grep -A2 -E "pairContactKernel|pairFilterKernel|wallForcesKernel|forcesKernel" "$out/ptxas.txt" | grep -E "stack|registers" || true
+grep -A2 -E "narrowPhaseKernel|filterKernel|wallForcesKernel|forcesKernel" "$out/ptxas.txt" | grep -E "stack|registers" || true
 lib="$build/cuda.o $build/PolyhedraSystem.o $build/PolyhedraCpuBackend.o $build/PolyhedraShapes.o $build/Log.o"
 "$nvcc" -arch=$arch $lib "$build/PolyhedraGpuComparison.o" -o "$build/polyhedra_gpu_comparison" -Xcompiler -fopenmp -lgomp
 "$nvcc" -arch=$arch $lib "$build/PolyhedraBench.o" -o "$build/polyhedra_bench" -Xcompiler -fopenmp -lgomp

@@ -17,11 +17,48 @@ def standard_dem_command(p, endpoint, out):
             os.path.join(out, "parameters.json"), endpoint, out]
 
 
+def implicit_options(p):
+    """FemCouplingEngine keyword arguments of the implicit scheme from a case's parameters
+    (implicit_tolerance, implicit_max_iterations, implicit_relaxation, aitken in case.toml)."""
+    return {"implicitTolerance": float(p["implicit_tolerance"]), "implicitMaxIterations": int(p["implicit_max_iterations"]),
+            "implicitRelaxation": float(p["implicit_relaxation"]), "aitken": bool(p["aitken"])}
+
+
+def coupling_info(coupling):
+    """The coupling engine's figures every case writes to dem_info.json: exchanges, costs, scheme,
+    interface work and, for the implicit scheme, the passes over the windows."""
+    return {"subcycles": coupling.subcycles, "exchanges": coupling.exchanges, "scheme": coupling.scheme,
+            "bridge_time_s": coupling.bridgeTime, "mapping_time_s": coupling.mappingTime, "wait_time_s": coupling.waitTime,
+            "interface_work_dem_j": coupling.interfaceWorkDem, "interface_work_fem_j": coupling.interfaceWorkFem,
+            "implicit_passes": coupling.implicitPasses, "max_window_passes": coupling.maxWindowPasses,
+            "unconverged_windows": coupling.unconvergedWindows, "checkpoint_time_s": coupling.checkpointTime}
+
+
+def force_fluctuation(times, force, span, reference):
+    """Oscillation of a window-sampled interface force: rms about its mean over the final `span` seconds
+    and over the span before it, both relative to `reference` (the load or weight), and their ratio.
+    A coupling that is stable in the mean but pumps energy into the contacts shows as a large or
+    growing fluctuation (stability criterion of tools/stability_map.py)."""
+    times, force = np.asarray(times, float), np.asarray(force, float)
+    final = times >= times[-1] - span
+    before = (times >= times[-1] - 2 * span) & ~final
+    rms = lambda values: float(np.std(values)) if len(values) > 1 else 0.0
+    last, previous = rms(force[final]) / abs(reference), rms(force[before]) / abs(reference)
+    return {"final": last, "previous": previous, "growth": last / previous if previous > 0 else None}
+
+
+def interface_energy_error(dem):
+    """|W_DEM - W_FEM| / max(|W_DEM|, |W_FEM|): disagreement of the two sides' interface work."""
+    a, b = dem["interface_work_dem_j"], dem["interface_work_fem_j"]
+    scale = max(abs(a), abs(b))
+    return abs(a - b) / scale if scale > 0 else 0.0
+
+
 def participant_summary(dem, fem):
     """The run-contract fields 'dem', 'fem' and 'coupling' of summary.json from dem_info.json and
     fem_summary.json (bridge time = encoding + transfer on both sides; force lumping listed apart)."""
     bridge = dem["bridge_time_s"] + fem.get("bridgeSeconds", 0.0)
-    return {
+    summary = {
         "dem": {"steps": dem["steps"], "dt": dem["dt"], "particles": dem["particles"]},
         "fem": {"steps": fem.get("steps"), "dt": fem.get("dt"), "nodes": fem.get("nodes")},
         "coupling": {"scheme": dem["scheme"], "exchanges": dem["exchanges"], "subcycles": dem["subcycles"],
@@ -29,6 +66,14 @@ def participant_summary(dem, fem):
                      "force_mapping_time_s": dem.get("mapping_time_s", 0.0), "bridge_time_s": bridge,
                      "bridge_time_per_exchange_s": bridge / max(1, dem["exchanges"])},
     }
+    if dem["scheme"] == "implicit":
+        # Passes per window and the cost of repeating windows (scene checkpoints, FEM re-solves).
+        summary["coupling"].update({"implicit_passes": dem["implicit_passes"],
+                                    "passes_per_window": dem["implicit_passes"] / max(1, dem["exchanges"]),
+                                    "max_window_passes": dem["max_window_passes"],
+                                    "unconverged_windows": dem["unconverged_windows"],
+                                    "checkpoint_time_s": dem["checkpoint_time_s"], "fem_solves": fem.get("solves")})
+    return summary
 
 
 def read_json(path):

@@ -1,12 +1,20 @@
 #!/usr/bin/python3
-"""Stability map of a case: runs it over a grid of settings and tabulates stability, error and wall time.
+"""Stability map of a case: runs it over a grid of settings and tabulates stability, errors and wall time.
 
 Usage: railcosim-env python3 tools/stability_map.py CASE [--smoke] --grid KEY=V1,V2 [--grid ...]
-                                                       [--set KEY=VALUE ...] [--out DIR]
-Each grid point is one `railcosim run CASE --set ...`. A run is *stable* when it finished and its
-interface force averaged over the final span is within 5 % of the particle weight (a bed at rest on
-the structure must transfer its whole weight; an unstable coupling pumps energy into the bed and the
-force departs from it by far more). Writes DIR/stability_map.json, DIR/stability_map.md, DIR/stability_map.png.
+           [--point KEY=V,KEY=V ...] [--set KEY=VALUE ...] [--reference KEY=V,KEY=V --reference-metric NAME]
+           [--out DIR]
+Each grid point is one `railcosim run CASE --set ...`; --point adds single extra points (e.g. one Aitken-off
+run) to the grid. The last --grid axis is the x axis of the plot (usually fem_dt); the others form the series.
+
+A run is *stable* when it finished, its interface force averaged over the final span is within 5 % of the
+weight or load it must carry, and the window-sampled interface force oscillates by at most 10 % (rms over
+the final span, relative to that weight or load). The first rule catches couplings that launch or drop the
+structure, the second those that stay right in the mean while pumping energy into the contacts (a weak
+instability: its oscillation grows from span to span, listed as "growth").
+With --reference, the record matching those settings is the converged reference: every run's metric NAME
+(a key of summary.json "metrics") is compared with it ("error vs reference").
+Writes DIR/stability_map.json, DIR/stability_map.md, DIR/stability_map.png.
 """
 import argparse
 import itertools
@@ -16,6 +24,39 @@ import subprocess
 import sys
 
 STABLE_FORCE_ERROR = 0.05
+STABLE_FLUCTUATION = 0.10
+
+
+def parse_point(text):
+    return dict(item.split("=", 1) for item in text.split(",") if item)
+
+
+def run_point(root, case, run_dir, settings, smoke):
+    command = [os.path.join(root, "railcosim"), "run", case, "--out", run_dir, "--force"] + (["--smoke"] if smoke else [])
+    for key, value in settings:
+        command += ["--set", f"{key}={value}"]
+    subprocess.run(command, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+    summary_path = os.path.join(run_dir, "summary.json")
+    if not os.path.isfile(summary_path):
+        return {"status": "failed"}
+    with open(summary_path) as f:
+        summary = json.load(f)
+    errors, metrics, coupling = summary.get("relative_error", {}), summary.get("metrics", {}), summary.get("coupling", {})
+    return {"status": summary["status"], "wall_time_s": summary.get("wall_time_s"),
+            "interface_force_error": errors.get("interface_force_vs_weight"),
+            "force_fluctuation": errors.get("interface_force_fluctuation"),
+            "fluctuation_growth": metrics.get("force_fluctuation_growth"),
+            "interface_energy_error": errors.get("interface_energy"),
+            "deflection_error": errors.get("coupled_vs_direct_fem"),
+            "passes_per_window": coupling.get("passes_per_window"),
+            "unconverged_windows": coupling.get("unconverged_windows"),
+            "metrics": metrics}
+
+
+def is_stable(record):
+    force, fluctuation = record.get("interface_force_error"), record.get("force_fluctuation")
+    return bool(record["status"] == "ok" and force is not None and force <= STABLE_FORCE_ERROR
+                and (fluctuation is None or fluctuation <= STABLE_FLUCTUATION))
 
 
 def main(argv):
@@ -23,92 +64,131 @@ def main(argv):
     parser.add_argument("case")
     parser.add_argument("--smoke", action="store_true")
     parser.add_argument("--grid", action="append", required=True, metavar="KEY=V1,V2")
+    parser.add_argument("--point", action="append", default=[], metavar="KEY=V,KEY=V")
     parser.add_argument("--set", action="append", default=[], metavar="KEY=VALUE")
+    parser.add_argument("--reference", default=None, metavar="KEY=V,KEY=V")
+    parser.add_argument("--reference-metric", default=None)
     parser.add_argument("--out", default=None)
     args = parser.parse_args(argv)
+    if bool(args.reference) != bool(args.reference_metric):
+        parser.error("--reference and --reference-metric go together")
     root = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
     name = os.path.basename(os.path.abspath(args.case).rstrip("/"))
     out = os.path.abspath(args.out or os.path.join("results", f"{name}-stability"))
     os.makedirs(out, exist_ok=True)
-    axes = []
-    for item in args.grid:
-        key, values = item.split("=", 1)
-        axes.append((key, values.split(",")))
-    records = []
-    for point in itertools.product(*[[(k, v) for v in values] for k, values in axes]):
-        label = "_".join(f"{k}-{v}" for k, v in point)
-        run_dir = os.path.join(out, label)
-        command = [os.path.join(root, "railcosim"), "run", args.case, "--out", run_dir, "--force"]
-        command += ["--smoke"] if args.smoke else []
-        for key, value in list(point) + [tuple(s.split("=", 1)) for s in args.set]:
-            command += ["--set", f"{key}={value}"]
-        result = subprocess.run(command, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
-        record = dict(point)
-        summary_path = os.path.join(run_dir, "summary.json")
-        if os.path.isfile(summary_path):
-            with open(summary_path) as f:
-                summary = json.load(f)
-            errors = summary.get("relative_error", {})
-            record.update({"status": summary["status"], "wall_time_s": summary["wall_time_s"],
-                           "interface_force_error": errors.get("interface_force_vs_weight"),
-                           "deflection_error": errors.get("coupled_vs_direct_fem"),
-                           "interface_work_dem_j": summary.get("metrics", {}).get("interface_work_dem_j"),
-                           "interface_work_fem_j": summary.get("metrics", {}).get("interface_work_fem_j")})
-        else:
-            record.update({"status": "failed", "wall_time_s": None, "interface_force_error": None,
-                           "deflection_error": None})
-        force_error = record["interface_force_error"]
-        record["stable"] = bool(record["status"] == "ok" and force_error is not None
-                                and force_error <= STABLE_FORCE_ERROR)
-        records.append(record)
-        print(f"[map] {label}: {'stable' if record['stable'] else 'UNSTABLE'}  force error "
-              f"{force_error if force_error is None else f'{force_error:.2%}'}  wall {record['wall_time_s']} s",
-              flush=True)
-    with open(os.path.join(out, "stability_map.json"), "w") as f:
-        json.dump({"case": name, "smoke": args.smoke, "criterion": f"interface force within "
-                   f"{STABLE_FORCE_ERROR:.0%} of the weight over the final span", "records": records}, f, indent=2)
+    axes = [(item.split("=", 1)[0], item.split("=", 1)[1].split(",")) for item in args.grid]
     keys = [k for k, _ in axes]
-    lines = ["| " + " | ".join(keys + ["stable", "force error", "deflection error vs direct FEM", "wall [s]"]) + " |",
-             "|" + "---|" * (len(keys) + 4)]
-    for r in records:
-        fmt = lambda v: "–" if v is None else f"{v:.2%}"
-        lines.append("| " + " | ".join([str(r[k]) for k in keys] + ["yes" if r["stable"] else "**no**",
-                                        fmt(r["interface_force_error"]), fmt(r["deflection_error"]),
-                                        "–" if r["wall_time_s"] is None else f"{r['wall_time_s']:.1f}"]) + " |")
-    with open(os.path.join(out, "stability_map.md"), "w") as f:
-        f.write("\n".join(lines) + "\n")
-    print("\n".join(lines))
-    plot(records, axes, os.path.join(out, "stability_map.png"))
+    points = [dict(p) for p in itertools.product(*[[(k, v) for v in values] for k, values in axes])]
+    for extra in args.point:
+        point = parse_point(extra)
+        if not all(k in point for k in keys):
+            parser.error(f"--point {extra}: give a value for every grid key ({', '.join(keys)}) and optionally others")
+        points.append(point)
+    fixed = [tuple(s.split("=", 1)) for s in args.set]
+    records = []
+    for point in points:
+        label = "_".join(f"{k}-{v}" for k, v in point.items())
+        record = {**point, **run_point(root, args.case, os.path.join(out, label), list(point.items()) + fixed, args.smoke)}
+        record["stable"] = is_stable(record)
+        records.append(record)
+        pct = lambda v: "–" if v is None else f"{v:.2%}"
+        print(f"[map] {label}: {'stable' if record['stable'] else 'UNSTABLE'}  force error {pct(record.get('interface_force_error'))}"
+              f"  oscillation {pct(record.get('force_fluctuation'))}  wall {record.get('wall_time_s')} s", flush=True)
+    reference = None
+    if args.reference:
+        wanted = parse_point(args.reference)
+        matches = [r for r in records if all(str(r.get(k)) == v for k, v in wanted.items())]
+        if not matches or args.reference_metric not in matches[0].get("metrics", {}):
+            sys.exit(f"stability_map.py: no finished run matches --reference {args.reference} with metric {args.reference_metric}")
+        reference = matches[0]["metrics"][args.reference_metric]
+        for r in records:
+            value = r.get("metrics", {}).get(args.reference_metric)
+            r["reference_error"] = None if value is None or r is matches[0] else abs(value - reference) / abs(reference)
+    extra_keys = sorted({k for r in records for k in r if k not in keys} & {k for p in points for k in p})
+    with open(os.path.join(out, "stability_map.json"), "w") as f:
+        json.dump({"case": name, "smoke": args.smoke,
+                   "criterion": f"finished; interface force within {STABLE_FORCE_ERROR:.0%} of the weight/load and its rms "
+                                f"oscillation at most {STABLE_FLUCTUATION:.0%} of it, over the final span",
+                   "reference": {"settings": args.reference, "metric": args.reference_metric, "value": reference},
+                   "records": records}, f, indent=2)
+    write_table(records, keys + extra_keys, reference is not None, os.path.join(out, "stability_map.md"))
+    plot(records, keys, reference is not None, args.reference_metric, os.path.join(out, "stability_map.png"))
     return 0
 
 
-def plot(records, axes, path):
+def write_table(records, keys, with_reference, path):
+    pct = lambda v: "–" if v is None else f"{v:.2%}"
+    columns = keys + ["stable", "force error", "oscillation (growth)", "interface energy error", "deflection error vs direct FEM"]
+    columns += ["error vs reference"] if with_reference else []
+    columns += ["passes/window", "wall [s]"]
+    lines = ["| " + " | ".join(columns) + " |", "|" + "---|" * len(columns)]
+    for r in records:
+        growth = r.get("fluctuation_growth")
+        cells = [str(r.get(k, "")) for k in keys] + [
+            "yes" if r["stable"] else "**no**", pct(r.get("interface_force_error")),
+            pct(r.get("force_fluctuation")) + ("" if growth is None else f" (×{growth:.1f})"),
+            pct(r.get("interface_energy_error")), pct(r.get("deflection_error"))]
+        if with_reference:
+            cells.append("reference" if r.get("reference_error") is None and r["status"] == "ok" else pct(r.get("reference_error")))
+        passes = r.get("passes_per_window")
+        cells += ["–" if passes is None else f"{passes:.2f}" + (f" ({r['unconverged_windows']} unconv.)" if r.get("unconverged_windows") else ""),
+                  "–" if r.get("wall_time_s") is None else f"{r['wall_time_s']:.1f}"]
+        lines.append("| " + " | ".join(cells) + " |")
+    with open(path, "w") as f:
+        f.write("\n".join(lines) + "\n")
+    print("\n".join(lines))
+
+
+def plot(records, keys, with_reference, metric, path):
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
-    series_key, x_key = axes[0][0], axes[-1][0]
-    fig, (top, bottom) = plt.subplots(2, 1, figsize=(7, 6.5), sharex=True)
-    for k, value in enumerate(dict.fromkeys(r[series_key] for r in records)):
-        rows = [r for r in records if r[series_key] == value and r["interface_force_error"] is not None]
+    x_key, series_keys = keys[-1], keys[:-1]
+    series_of = lambda r: ", ".join(f"{k}={r.get(k)}" for k in series_keys + sorted(set(r) - set(keys) - set(STAT_KEYS))
+                                    if k in r) or "runs"
+    panels = 3 if with_reference else 2
+    fig, ax = plt.subplots(1, panels, figsize=(5.2 * panels, 4.4))
+    for k, label in enumerate(dict.fromkeys(series_of(r) for r in records)):
+        rows = sorted((r for r in records if series_of(r) == label and r.get("interface_force_error") is not None),
+                      key=lambda r: float(r[x_key]))
+        if not rows:
+            continue
         xs = [float(r[x_key]) for r in rows]
-        top.plot(xs, [max(r["interface_force_error"], 1e-5) for r in rows], "o-", color=f"C{k}", label=str(value))
-        bottom.plot(xs, [r["wall_time_s"] for r in rows], "o-", color=f"C{k}", label=str(value))
-        for r in rows:
+        worst = [max(r["interface_force_error"], r.get("force_fluctuation") or 0.0, 1e-5) for r in rows]
+        ax[0].plot(xs, worst, "o-", color=f"C{k}", label=label)
+        ax[1].plot(xs, [r["wall_time_s"] for r in rows], "o-", color=f"C{k}", label=label)
+        for r, y in zip(rows, worst):
             if not r["stable"]:
-                top.plot(float(r[x_key]), r["interface_force_error"], "x", color="k", ms=10)
-    top.axhline(STABLE_FORCE_ERROR, ls="--", color="grey", label="stability limit")
-    top.set_yscale("log")
-    top.set_ylabel("interface force error vs weight")
-    bottom.set_ylabel("coupled wall time [s]")
-    for ax in (top, bottom):
-        ax.set_xscale("log")
-        ax.grid(alpha=0.3)
-        ax.legend(fontsize=8, title=series_key)
-    bottom.set_xlabel(x_key)
+                ax[0].plot(float(r[x_key]), y, "x", color="k", ms=10)
+        if with_reference:
+            pts = [(r["wall_time_s"], r["reference_error"]) for r in rows if r.get("reference_error") is not None and r["stable"]]
+            if pts:
+                ax[2].plot(*zip(*pts), "o", color=f"C{k}", label=label)
+    ax[0].axhline(STABLE_FLUCTUATION, ls="--", color="grey", label="stability limit (oscillation)")
+    ax[0].set_ylabel("max(mean force error, force oscillation) / load")
+    ax[0].set_title("stability (x: unstable)")
+    ax[1].set_ylabel("coupled wall time [s]")
+    for a in ax[:2]:
+        a.set_xscale("log")
+        a.set_yscale("log")
+        a.set_xlabel(x_key)
+    if with_reference:
+        ax[2].set_xscale("log")
+        ax[2].set_yscale("log")
+        ax[2].set_xlabel("coupled wall time [s]")
+        ax[2].set_ylabel(f"{metric}: error vs reference run")
+        ax[2].set_title("speed vs error (stable runs)")
+    for a in ax:
+        a.grid(alpha=0.3)
+        a.legend(fontsize=7)
     fig.tight_layout()
     fig.savefig(path, dpi=120)
     plt.close(fig)
 
+
+STAT_KEYS = ["status", "wall_time_s", "interface_force_error", "force_fluctuation", "fluctuation_growth",
+             "interface_energy_error", "deflection_error", "passes_per_window", "unconverged_windows", "metrics",
+             "stable", "reference_error"]
 
 if __name__ == "__main__":
     sys.exit(main(sys.argv[1:]))

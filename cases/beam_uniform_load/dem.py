@@ -9,6 +9,8 @@ import time
 
 import numpy as np
 
+import railcosim_results as results
+
 params_path, endpoint, out = sys.argv[1], sys.argv[2], sys.argv[3]
 with open(params_path) as f:
     p = json.load(f)
@@ -67,7 +69,8 @@ total_mass = sum(O.bodies[i].state.mass for i in sphere_ids)
 # 4. Engines: the coupling engine sits after the contact loop and before the integrator.
 coupling = FemCouplingEngine(endpoint=endpoint, material=O.materials[beam_mat], scheme=p["scheme"],
                              averageForces=p["average_forces"], contactModel=p["contact_model"],
-                             restitution=p["restitution"], timeout=60.0, label="coupling")
+                             restitution=p["restitution"], timeout=60.0, label="coupling",
+                             **results.implicit_options(p))
 O.engines = [
     ForceResetter(),
     InsertionSortCollider([Bo1_Sphere_Aabb(), Bo1_Facet_Aabb(), Bo1_Wall_Aabb()]),
@@ -124,12 +127,8 @@ wall = time.monotonic() - wall_start
 np.savez_compressed(os.path.join(out, "dem_timeseries.npz"),
                     **{k: np.asarray(v, dtype=float) for k, v in series.items()},
                     triangles=np.asarray([tuple(t) for t in coupling.triangles], dtype=int))
-info = {"steps": O.iter, "dt": O.dt, "particles": count, "total_particle_mass_kg": total_mass,
-        "subcycles": n, "exchanges": coupling.exchanges, "bridge_time_s": coupling.bridgeTime,
-        "mapping_time_s": coupling.mappingTime,
-        "wait_time_s": coupling.waitTime, "wall_time_s": wall, "scheme": coupling.scheme,
-        "final_kinetic_energy_j": utils.kineticEnergy(), "particles_below_surface": particles_below_surface(),
-        "interface_work_dem_j": coupling.interfaceWorkDem, "interface_work_fem_j": coupling.interfaceWorkFem}
+info = {**results.coupling_info(coupling), "steps": O.iter, "dt": O.dt, "particles": count, "total_particle_mass_kg": total_mass,
+        "wall_time_s": wall, "final_kinetic_energy_j": utils.kineticEnergy(), "particles_below_surface": particles_below_surface()}
 with open(os.path.join(out, "dem_info.json"), "w") as f:
     json.dump(info, f, indent=2)
 print(f"done: {O.iter} steps in {wall:.1f} s; bridge {coupling.bridgeTime:.3f} s over {coupling.exchanges} exchanges",

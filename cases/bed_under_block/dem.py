@@ -9,6 +9,8 @@ import time
 
 import numpy as np
 
+import railcosim_results as results
+
 params_path, endpoint, out = sys.argv[1], sys.argv[2], sys.argv[3]
 with open(params_path) as f:
     p = json.load(f)
@@ -64,7 +66,8 @@ O.engines[1].doSort = True  # the collider must see the bed at its new place
 # 4. Couple: the block's bottom face becomes facets (or hierarchy contacts); the block is pressed down by FEM.
 coupling = FemCouplingEngine(endpoint=endpoint, material=O.materials[block_mat], scheme=p["scheme"],
                              averageForces=p["average_forces"], contactModel=p["contact_model"],
-                             restitution=p["restitution"], timeout=60.0, label="coupling")
+                             restitution=p["restitution"], timeout=60.0, label="coupling",
+                             **results.implicit_options(p))
 O.engines = O.engines[:3] + [coupling] + O.engines[3:]
 coupling.connect()
 n, windows = coupling.subcycles, int(round(p["duration_s"] / coupling.femDt))
@@ -91,10 +94,8 @@ O.engines = O.engines + [PyRunner(command="record()", iterPeriod=n, initRun=Fals
 O.run(windows * n + 1, True)
 coupling.finalize()
 np.savez_compressed(os.path.join(out, "dem_timeseries.npz"), **{k: np.asarray(v, float) for k, v in series.items()})
-info = {"steps": O.iter, "dt": O.dt, "particles": len(spheres), "subcycles": n, "exchanges": coupling.exchanges,
-        "bridge_time_s": coupling.bridgeTime, "mapping_time_s": coupling.mappingTime,
-        "wall_time_s": time.monotonic() - wall_start, "scheme": coupling.scheme, "load_n": load,
-        "interface_work_dem_j": coupling.interfaceWorkDem, "interface_work_fem_j": coupling.interfaceWorkFem,
+info = {**results.coupling_info(coupling), "steps": O.iter, "dt": O.dt, "particles": len(spheres),
+        "wall_time_s": time.monotonic() - wall_start, "load_n": load,
         "final_kinetic_energy_j": utils.kineticEnergy()}
 with open(os.path.join(out, "dem_info.json"), "w") as f:
     json.dump(info, f, indent=2)

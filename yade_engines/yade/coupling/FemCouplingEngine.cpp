@@ -288,6 +288,7 @@ void FemCouplingEngine::saveCheckpoint()
 void FemCouplingEngine::restoreCheckpoint()
 {
 	const auto        start = Clock::now();
+	if (!checkpoint) throw std::logic_error("FemCouplingEngine (implicit): no checkpoint to repeat the window from (internal error).");
 	gilLock           python; // see saveCheckpoint()
 	const Checkpoint& c     = *checkpoint;
 	std::vector<shared_ptr<State>>  states;
@@ -521,7 +522,8 @@ void FemCouplingEngine::action()
 			// Implicit: back to the window's start (states, contacts, forces, clock) for another pass.
 			if (!windowStarts) restoreCheckpoint();
 		}
-		if (implicitWindow && windowStarts) saveCheckpoint();
+		// connect() may have run from Python before the first step: the first window then starts here.
+		if (implicitWindow && (windowStarts || !checkpoint)) saveCheckpoint();
 		++stepsInWindow;
 		placeSurface(stepsInWindow * scene->dt, true);
 	} catch (const railcosim::Error& e) {

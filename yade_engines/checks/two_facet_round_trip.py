@@ -4,7 +4,9 @@
 # nodes are independent springs), with the facets following the received node positions.
 # With the implicit scheme also: every window converges, windows are repeated (more passes than windows),
 # and the rolled-back clock stays consistent (O.time = O.iter * O.dt after thousands of rollbacks).
-# Run: ./railcosim yade yade_engines/checks/two_facet_round_trip.py PATH/TO/railcosim_dummy_fem [facets|hierarchy] [SCHEME]
+# BODY "clump": a two-sphere cluster instead of the sphere (hierarchy contacts push on each member, the
+# clump integrates them): the same weight and moment balance about the clump's centre of mass, two contacts.
+# Run: ./railcosim yade yade_engines/checks/two_facet_round_trip.py PATH/TO/railcosim_dummy_fem [facets|hierarchy] [SCHEME] [sphere|clump]
 import os
 import subprocess
 import sys
@@ -13,6 +15,7 @@ import uuid
 dummy_fem = sys.argv[1]
 contact_model = sys.argv[2] if len(sys.argv) > 2 else "facets"
 scheme = sys.argv[3] if len(sys.argv) > 3 else "justInTime"
+body_kind = sys.argv[4] if len(sys.argv) > 4 else "sphere"
 stiffness = 2.0e5  # N/m per node
 endpoint = f"ipc:///tmp/railcosim-check-{os.getpid()}-{uuid.uuid4().hex[:6]}.sock"
 fem = subprocess.Popen([dummy_fem, "--endpoint", endpoint, "--nx", "2", "--ny", "2", "--spacing", "0.2",
@@ -29,7 +32,12 @@ def check(condition, message):
 
 radius, centre_xy = 0.02, (0.13, 0.06)
 mat = O.materials.append(FrictMat(young=5e7, poisson=0.3, density=7800, frictionAngle=0.5))
-sphere = O.bodies.append(utils.sphere((centre_xy[0], centre_xy[1], radius * 1.01), radius, material=mat))
+if body_kind == "clump":
+    # Two touching spheres along x, centred on centre_xy: the cluster rests on both.
+    members = [utils.sphere((centre_xy[0] + dx, centre_xy[1], radius * 1.01), radius, material=mat) for dx in (-radius, radius)]
+    sphere, member_ids = O.bodies.appendClumped(members)
+else:
+    sphere = O.bodies.append(utils.sphere((centre_xy[0], centre_xy[1], radius * 1.01), radius, material=mat))
 coupling = FemCouplingEngine(endpoint=endpoint, material=O.materials[mat], timeout=30, contactModel=contact_model,
                              scheme=scheme, implicitTolerance=1e-4, label="coupling")
 O.engines = [ForceResetter(), InsertionSortCollider([Bo1_Sphere_Aabb(), Bo1_Facet_Aabb()]),
@@ -65,7 +73,7 @@ centroid = (sums["moment_x"] / n / mean_force[2], sums["moment_y"] / n / mean_fo
 sphere_pos = O.bodies[sphere].state.pos
 # The contact point is the sphere's foot; 1 mm covers its sway on the vibrating surface.
 check(abs(centroid[0] - sphere_pos[0]) < 1e-3 and abs(centroid[1] - sphere_pos[1]) < 1e-3,
-      f"force centroid {centroid} under the sphere ({sphere_pos[0]:.4f}, {sphere_pos[1]:.4f})")
+      f"force centroid {centroid} under the {body_kind} ({sphere_pos[0]:.4f}, {sphere_pos[1]:.4f})")
 # Round trip: the node positions received back are z = F/k (springs at rest under the sent forces).
 for i, (f, x) in enumerate(zip(coupling.nodalForces, coupling.nodePositions)):
     expected = f[2] / stiffness
@@ -78,7 +86,9 @@ if contact_model == "facets":
     gap = max((world[j] - coupling.nodePositions[tri[j]]).norm() for j in range(3))
     check(gap < 1e-9 + 2 * O.dt * max(v.norm() for v in coupling.nodeVelocities), f"facet vertices on the nodes (gap {gap:.2e} m)")
 else:
-    check(coupling.surfaceContacts == 1, f"one hierarchy contact under the sphere (got {coupling.surfaceContacts})")
+    expected_contacts = 2 if body_kind == "clump" else 1
+    check(coupling.surfaceContacts == expected_contacts,
+          f"{expected_contacts} hierarchy contact(s) under the {body_kind} (got {coupling.surfaceContacts})")
 if scheme == "implicit":
     windows = coupling.window
     check(coupling.unconvergedWindows == 0, f"every window converged ({coupling.unconvergedWindows} did not)")

@@ -50,7 +50,7 @@ ContactLawConstants law(double E, double nu, double friction) {
 
 ContactResult staticContact(const ConvexCore& a, const ConvexCore& b, double r, const ContactLawConstants& constants,
                             double featureTolerance = 0.02) {
-    ContactSlot slot{1, 0, {0, 0, 0}, {0, 0, 0}, 0.0};
+    ContactSlot slot{1, 0, {0, 0, 0}, {0, 0, 0}, 0.0, 0};
     unsigned long long counters[counterCount] = {0, 0, 0, 0, 0};
     const ContactKinematics rest{Vec3{0, 0, 0}, Vec3{0, 0, 0}, Vec3{0, 0, 0}};
     ContactKinematics kinematicsB = rest;

@@ -102,6 +102,7 @@ struct CoreDistance {
     Vec3 pointB;        // closest point on core B [m]
     Vec3 axis;          // beyondCutoff only: unit direction A -> B along which the cores are ≥ cutoff apart
     int iterations;
+    std::uint64_t simplex;  // final simplex as support vertex pairs (encodeSimplex), the next query's warm start
 };
 
 namespace detail {
@@ -275,7 +276,15 @@ RAILCOSIM_HOST_DEVICE inline void tetrahedronFace(const Pair& pair, const Simple
 }
 
 // Closest point of the tetrahedron in `s` to the origin, reducing `s`; false if the origin is inside.
-RAILCOSIM_HOST_DEVICE inline bool closestOnTetrahedron(const Pair& pair, Simplex& s, Weights& weights, Vec3& closest) {
+#ifndef RAILCOSIM_POLYHEDRA_TETRA_NOINLINE
+#define RAILCOSIM_POLYHEDRA_TETRA_NOINLINE 0
+#endif
+#if RAILCOSIM_POLYHEDRA_TETRA_NOINLINE
+RAILCOSIM_HOST_DEVICE RAILCOSIM_POLYHEDRA_NOINLINE inline bool closestOnTetrahedron(
+#else
+RAILCOSIM_HOST_DEVICE inline bool closestOnTetrahedron(
+#endif
+const Pair& pair, Simplex& s, Weights& weights, Vec3& closest) {
     const Vec3 x0 = point(pair, s.p0), x1 = point(pair, s.p1), x2 = point(pair, s.p2), x3 = point(pair, s.p3);
     // A flat (degenerate) tetrahedron arises in face–face contacts, where support points of parallel faces
     // are coplanar: its faces cannot separate anything, so all of them are searched instead of reporting
@@ -329,29 +338,66 @@ RAILCOSIM_HOST_DEVICE inline bool closestOnSimplex(const Pair& pair, Simplex& s,
 
 RAILCOSIM_HOST_DEVICE inline bool sameSupport(const SimplexVertex& v, int a, int b) { return v.a == a && v.b == b; }
 
+// A simplex of 1–3 vertices packed in 64 bits: the count in bits 0–1, then per vertex 10 bits of A's and
+// 10 bits of B's vertex index. 0 means none (also for cores of more than 1024 vertices, or a tetrahedron).
+constexpr int simplexIndexBits = 10;
+constexpr int simplexIndexLimit = 1 << simplexIndexBits;
+
+RAILCOSIM_HOST_DEVICE inline std::uint64_t encodeSimplex(const Simplex& s) {
+    if (s.count < 1 || s.count > 3) return 0;
+    const SimplexVertex vertices[3] = {s.p0, s.p1, s.p2};
+    std::uint64_t code = static_cast<std::uint64_t>(s.count);
+    for (int k = 0; k < s.count; ++k) {
+        if (vertices[k].a >= simplexIndexLimit || vertices[k].b >= simplexIndexLimit) return 0;
+        code |= static_cast<std::uint64_t>(vertices[k].a) << (2 + 2 * simplexIndexBits * k);
+        code |= static_cast<std::uint64_t>(vertices[k].b) << (2 + 2 * simplexIndexBits * k + simplexIndexBits);
+    }
+    return code;
+}
+
+RAILCOSIM_HOST_DEVICE inline SimplexVertex decodeSimplexVertex(std::uint64_t code, int k) {
+    const int shift = 2 + 2 * simplexIndexBits * k;
+    return SimplexVertex{static_cast<int>((code >> shift) & (simplexIndexLimit - 1)),
+                         static_cast<int>((code >> (shift + simplexIndexBits)) & (simplexIndexLimit - 1))};
+}
+
 }  // namespace detail
 
 // initialDirection: any guess of the direction from A to B (a cached contact normal makes GJK converge
 // in one or two iterations for persistent contacts, the "warm start"). cutoff: GJK stops as soon as a
 // separating direction proves the distance ≥ cutoff (most neighbour-list candidates are not in contact,
 // and the exact distance of those is never needed); pass a huge value for the exact distance.
+// warmSimplex: the `simplex` of an earlier query of the same two cores (0: none). Any support vertex pairs
+// are points of A − B, so GJK may start from them; for a persistent contact the closest features rarely
+// change between steps, and the first iteration then only confirms them.
 RAILCOSIM_HOST_DEVICE inline CoreDistance coreDistance(const ConvexCore& A, const ConvexCore& B, const Vec3& initialDirection,
-                                                       double cutoff = 1e300) {
+                                                       double cutoff = 1e300, std::uint64_t warmSimplex = 0) {
     // Relative tolerance on the squared distance (double precision: ~1e-12 of the distance itself is
     // far below any overlap that matters, 1e-3 r_d in the tests).
     constexpr double relativeTolerance = 1e-12;
     constexpr int maxIterations = 64;
     const detail::Pair pair{A, B};
     detail::Simplex s;
-    Vec3 direction = initialDirection;
-    if (kernels::squaredNorm(direction) < 1e-300) direction = Vec3{1.0, 0.0, 0.0};
-    // First vertex of A − B: support of A along −(B−A) and of B along +(B−A), i.e. the facing features.
-    s.p0 = detail::SimplexVertex{supportIndex(A, direction), supportIndex(B, -direction)};
-    s.p1 = s.p2 = s.p3 = s.p0;
-    s.count = 1;
     detail::Weights weights{1.0, 0.0, 0.0, 0.0};
-    Vec3 v = detail::point(pair, s.p0);
-    CoreDistance result{false, false, 0.0, Vec3{0.0, 0.0, 0.0}, Vec3{0.0, 0.0, 0.0}, Vec3{0.0, 0.0, 0.0}, 0};
+    Vec3 v;
+    const int warmCount = static_cast<int>(warmSimplex & 3u);
+    if (warmCount > 0) {
+        s.p0 = detail::decodeSimplexVertex(warmSimplex, 0);
+        s.p1 = warmCount > 1 ? detail::decodeSimplexVertex(warmSimplex, 1) : s.p0;
+        s.p2 = warmCount > 2 ? detail::decodeSimplexVertex(warmSimplex, 2) : s.p0;
+        s.p3 = s.p0;
+        s.count = warmCount;
+        detail::closestOnSimplex(pair, s, weights, v);  // at most a triangle: always succeeds
+    } else {
+        Vec3 direction = initialDirection;
+        if (kernels::squaredNorm(direction) < 1e-300) direction = Vec3{1.0, 0.0, 0.0};
+        // First vertex of A − B: support of A along −(B−A) and of B along +(B−A), i.e. the facing features.
+        s.p0 = detail::SimplexVertex{supportIndex(A, direction), supportIndex(B, -direction)};
+        s.p1 = s.p2 = s.p3 = s.p0;
+        s.count = 1;
+        v = detail::point(pair, s.p0);
+    }
+    CoreDistance result{false, false, 0.0, Vec3{0.0, 0.0, 0.0}, Vec3{0.0, 0.0, 0.0}, Vec3{0.0, 0.0, 0.0}, 0, 0};
     int iteration = 0;
     for (; iteration < maxIterations; ++iteration) {
         const double vv = kernels::dot(v, v);
@@ -370,6 +416,7 @@ RAILCOSIM_HOST_DEVICE inline CoreDistance coreDistance(const ConvexCore& A, cons
             result.distance = separation / length;
             result.axis = (-1.0 / length) * v;  // v points from B to A
             result.iterations = iteration;
+            result.simplex = detail::encodeSimplex(s);
             return result;
         }
         // Convergence: no support point gets closer than v by more than the tolerance (GJK's lower bound).
@@ -398,6 +445,7 @@ RAILCOSIM_HOST_DEVICE inline CoreDistance coreDistance(const ConvexCore& A, cons
         if (kernels::dot(v, v) >= vv) break;
     }
     result.iterations = iteration;
+    result.simplex = result.intersecting ? 0 : detail::encodeSimplex(s);
     Vec3 pa = weights.w0 * vertexWorld(A, s.p0.a), pb = weights.w0 * vertexWorld(B, s.p0.b);
     if (s.count > 1) {
         pa += weights.w1 * vertexWorld(A, s.p1.a);

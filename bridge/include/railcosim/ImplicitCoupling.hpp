@@ -14,7 +14,8 @@ struct ImplicitSettings {
   double tolerance = 1e-3;          // relative: converged when rms|r| <= tolerance * rms|P_end - P_0| + absoluteTolerance
   double absoluteTolerance = 1e-14; // m, rms over the interface values; floor for a surface that has hardly moved
   int maxIterations = 30;           // passes per window; the last one is accepted and counted as not converged
-  double relaxation = 0.5;          // ω of the first pass of every window (and of every pass without Aitken)
+  double relaxation = 0.5;          // ω of the first window's first correction (of every pass without Aitken; with
+                                    // Aitken, later windows start from the previous window's last ω if it lies in (0, 1])
   bool aitken = true;               // dynamic Aitken ω (Irons & Tuck; Küttler & Wall 2008)
   void validate() const;            // throws Error naming the bad setting
 };

@@ -55,7 +55,7 @@ public:
 		((Real, implicitTolerance, 1e-3, , "``implicit``: a window is accepted when the rms difference between the FEM's end positions and those the surface was moved to is at most implicitTolerance times the rms interface displacement since t=0 plus :yref:`FemCouplingEngine.implicitAbsoluteTolerance`."))
 		((Real, implicitAbsoluteTolerance, 1e-14, , "``implicit``: absolute floor of the convergence test [m] (rms over the interface values)."))
 		((int, implicitMaxIterations, 30, , "``implicit``: passes per window; the last one is then accepted and counted in :yref:`FemCouplingEngine.unconvergedWindows`."))
-		((Real, implicitRelaxation, 0.5, , "``implicit``: relaxation factor of a window's first corrective pass (and of every pass when :yref:`FemCouplingEngine.aitken` is off), in (0, 1]."))
+		((Real, implicitRelaxation, 0.5, , "``implicit``: relaxation factor of the first corrective pass, in (0, 1]; without :yref:`FemCouplingEngine.aitken` it is used for every pass, with Aitken a window starts from the previous window's last factor when that lies in (0, 1]."))
 		((bool, aitken, true, , "``implicit``: dynamic Aitken relaxation of the interface positions."))
 		((long, implicitPasses, 0, Attr::readonly, "``implicit``: DEM passes over all windows so far (a window that converges at once counts 1)."))
 		((long, lastWindowPasses, 0, Attr::readonly, "``implicit``: passes the last accepted window needed."))

@@ -11,7 +11,9 @@ A run is *stable* when it finished, its interface force averaged over the final 
 weight or load it must carry, and the window-sampled interface force oscillates by at most 10 % (rms over
 the final span, relative to that weight or load). The first rule catches couplings that launch or drop the
 structure, the second those that stay right in the mean while pumping energy into the contacts (a weak
-instability: its oscillation grows from span to span, listed as "growth").
+instability: its oscillation grows from span to span, listed as "growth"). A case without a carried load
+(an impact) reports an energy balance instead: stable when it finished and the energy after the event
+is within 10 % of the energy before (an unstable coupling creates energy).
 With --reference, the record matching those settings is the converged reference: every run's metric NAME
 (a key of summary.json "metrics") is compared with it ("error vs reference").
 Writes DIR/stability_map.json, DIR/stability_map.md, DIR/stability_map.png.
@@ -25,6 +27,7 @@ import sys
 
 STABLE_FORCE_ERROR = 0.05
 STABLE_FLUCTUATION = 0.10
+STABLE_ENERGY_ERROR = 0.10
 
 
 def parse_point(text):
@@ -47,6 +50,7 @@ def run_point(root, case, run_dir, settings, smoke):
             "force_fluctuation": errors.get("interface_force_fluctuation"),
             "fluctuation_growth": metrics.get("force_fluctuation_growth"),
             "interface_energy_error": errors.get("interface_energy"),
+            "energy_balance_error": errors.get("energy_balance"),
             "deflection_error": errors.get("coupled_vs_direct_fem"),
             "passes_per_window": coupling.get("passes_per_window"),
             "unconverged_windows": coupling.get("unconverged_windows"),
@@ -54,9 +58,21 @@ def run_point(root, case, run_dir, settings, smoke):
 
 
 def is_stable(record):
-    force, fluctuation = record.get("interface_force_error"), record.get("force_fluctuation")
-    return bool(record["status"] == "ok" and force is not None and force <= STABLE_FORCE_ERROR
-                and (fluctuation is None or fluctuation <= STABLE_FLUCTUATION))
+    if record["status"] != "ok":
+        return False
+    force, fluctuation, energy = (record.get("interface_force_error"), record.get("force_fluctuation"),
+                                  record.get("energy_balance_error"))
+    if force is None and energy is None:
+        return False  # the case reports nothing to judge stability by
+    return bool((force is None or force <= STABLE_FORCE_ERROR) and (fluctuation is None or fluctuation <= STABLE_FLUCTUATION)
+                and (energy is None or energy <= STABLE_ENERGY_ERROR))
+
+
+def stability_measure(record):
+    """The largest of the measures the stability rules bound, each relative to its own limit scale."""
+    values = [record.get(k) for k in ("interface_force_error", "force_fluctuation", "energy_balance_error")]
+    values = [v for v in values if v is not None]
+    return max(values) if values else None
 
 
 def main(argv):
@@ -118,7 +134,8 @@ def main(argv):
 
 def write_table(records, keys, with_reference, path):
     pct = lambda v: "–" if v is None else f"{v:.2%}"
-    columns = keys + ["stable", "force error", "oscillation (growth)", "interface energy error", "deflection error vs direct FEM"]
+    columns = keys + ["stable", "force error", "oscillation (growth)", "energy balance", "interface energy error",
+                      "deflection error vs direct FEM"]
     columns += ["error vs reference"] if with_reference else []
     columns += ["passes/window", "wall [s]"]
     lines = ["| " + " | ".join(columns) + " |", "|" + "---|" * len(columns)]
@@ -127,7 +144,7 @@ def write_table(records, keys, with_reference, path):
         cells = [str(r.get(k, "")) for k in keys] + [
             "yes" if r["stable"] else "**no**", pct(r.get("interface_force_error")),
             pct(r.get("force_fluctuation")) + ("" if growth is None else f" (×{growth:.1f})"),
-            pct(r.get("interface_energy_error")), pct(r.get("deflection_error"))]
+            pct(r.get("energy_balance_error")), pct(r.get("interface_energy_error")), pct(r.get("deflection_error"))]
         if with_reference:
             cells.append("reference" if r.get("reference_error") is None and r["status"] == "ok" else pct(r.get("reference_error")))
         passes = r.get("passes_per_window")
@@ -149,12 +166,12 @@ def plot(records, keys, with_reference, metric, path):
     panels = 3 if with_reference else 2
     fig, ax = plt.subplots(1, panels, figsize=(5.2 * panels, 4.4))
     for k, label in enumerate(dict.fromkeys(series_of(r) for r in records)):
-        rows = sorted((r for r in records if series_of(r) == label and r.get("interface_force_error") is not None),
+        rows = sorted((r for r in records if series_of(r) == label and stability_measure(r) is not None),
                       key=lambda r: float(r[x_key]))
         if not rows:
             continue
         xs = [float(r[x_key]) for r in rows]
-        worst = [max(r["interface_force_error"], r.get("force_fluctuation") or 0.0, 1e-5) for r in rows]
+        worst = [max(stability_measure(r), 1e-5) for r in rows]
         ax[0].plot(xs, worst, "o-", color=f"C{k}", label=label)
         ax[1].plot(xs, [r["wall_time_s"] for r in rows], "o-", color=f"C{k}", label=label)
         for r, y in zip(rows, worst):
@@ -164,8 +181,8 @@ def plot(records, keys, with_reference, metric, path):
             pts = [(r["wall_time_s"], r["reference_error"]) for r in rows if r.get("reference_error") is not None and r["stable"]]
             if pts:
                 ax[2].plot(*zip(*pts), "o", color=f"C{k}", label=label)
-    ax[0].axhline(STABLE_FLUCTUATION, ls="--", color="grey", label="stability limit (oscillation)")
-    ax[0].set_ylabel("max(mean force error, force oscillation) / load")
+    ax[0].axhline(STABLE_FLUCTUATION, ls="--", color="grey", label="stability limit (oscillation, energy)")
+    ax[0].set_ylabel("max(force error, oscillation, energy balance)")
     ax[0].set_title("stability (x: unstable)")
     ax[1].set_ylabel("coupled wall time [s]")
     for a in ax[:2]:
@@ -178,7 +195,9 @@ def plot(records, keys, with_reference, metric, path):
         ax[2].set_xlabel("coupled wall time [s]")
         ax[2].set_ylabel(f"{metric}: error vs reference run")
         ax[2].set_title("speed vs error (stable runs)")
+    from matplotlib.ticker import NullFormatter
     for a in ax:
+        a.xaxis.set_minor_formatter(NullFormatter())  # minor labels of a short log axis overlap
         a.grid(alpha=0.3)
         a.legend(fontsize=7)
     fig.tight_layout()
@@ -186,7 +205,7 @@ def plot(records, keys, with_reference, metric, path):
     plt.close(fig)
 
 
-STAT_KEYS = ["status", "wall_time_s", "interface_force_error", "force_fluctuation", "fluctuation_growth",
+STAT_KEYS = ["status", "wall_time_s", "interface_force_error", "force_fluctuation", "fluctuation_growth", "energy_balance_error",
              "interface_energy_error", "deflection_error", "passes_per_window", "unconverged_windows", "metrics",
              "stable", "reference_error"]
 

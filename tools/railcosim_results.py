@@ -54,6 +54,13 @@ def interface_energy_error(dem):
     return abs(a - b) / scale if scale > 0 else 0.0
 
 
+def interface_work_panel(series):
+    """History panel of the interface energy audit: the work of the interface forces seen by each side."""
+    return {"x": series["time"], "y": series["interface_work_dem"], "label": "interface work, DEM side (F·v dt per DEM step)",
+            "ylabel": "interface work [J]", "lines": [],
+            "more": [(series["interface_work_fem"], "interface work, FEM side (F·ΔP per window)")]}
+
+
 def participant_summary(dem, fem):
     """The run-contract fields 'dem', 'fem' and 'coupling' of summary.json from dem_info.json and
     fem_summary.json (bridge time = encoding + transfer on both sides; force lumping listed apart)."""
@@ -106,13 +113,16 @@ def write_timeseries(path, groups):
 
 
 def plot_history(path, title, panels):
-    """Stacked time-history panels; each panel {x, y, label, ylabel, lines: [(value, label)]}."""
+    """Stacked time-history panels; each panel {x, y, label, ylabel, lines: [(value, label)],
+    more: [(y, label)] further curves over the same x (optional)}."""
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
     fig, axes = plt.subplots(len(panels), 1, figsize=(8, 3.2 * len(panels)), sharex=True, squeeze=False)
     for ax, panel in zip(axes[:, 0], panels):
         ax.plot(panel["x"], panel["y"], label=panel["label"], lw=1.2)
+        for y, label in panel.get("more", []):
+            ax.plot(panel["x"], y, label=label, lw=1.2, ls="-.")
         for k, (value, label) in enumerate(panel.get("lines", [])):
             ax.axhline(value, ls="--", lw=1.0, color=f"C{k + 1}", label=label)
         ax.set_ylabel(panel["ylabel"])

@@ -99,6 +99,7 @@ def postprocess(p, out):
                        (closed * 1e6, "closed form (Timoshenko)")]},
             {"x": series["time"], "y": -series["interface_force"][:, 2], "label": "interface force from DEM",
              "ylabel": "force on beam [N]", "lines": [(weight, "particle weight")]},
+            results.interface_work_panel(series),
         ])
 
     error_direct = abs(coupled - direct_deflection) / direct_deflection

@@ -92,7 +92,7 @@ print(f"{count} spheres, {total_mass:.3f} kg, radius {R} m; {len(coupling.triang
       f"O.dt={O.dt:.3e} s, {n} DEM steps per FEM step, {windows} windows", flush=True)
 
 # 5. One record per window: interface force, kinetic energy, nodal forces and kinematics.
-series = {"time": [], "interface_force": [], "kinetic_energy": [], "nodal_forces": [], "node_positions": [],
+series = {"time": [], "interface_force": [], "interface_work_dem": [], "interface_work_fem": [], "kinetic_energy": [], "nodal_forces": [], "node_positions": [],
           "node_velocities": [], "particles_below_surface": []}
 
 
@@ -106,6 +106,8 @@ wall_start = time.monotonic()
 def record():
     series["time"].append(O.time)
     series["interface_force"].append(tuple(coupling.totalForce))
+    series["interface_work_dem"].append(coupling.interfaceWorkDem)
+    series["interface_work_fem"].append(coupling.interfaceWorkFem)
     series["kinetic_energy"].append(utils.kineticEnergy())
     series["nodal_forces"].append([tuple(f) for f in coupling.nodalForces])
     series["node_positions"].append([tuple(x) for x in coupling.nodePositions])

@@ -37,6 +37,7 @@ def postprocess(p, out):
          "ylabel": "force [N]", "lines": [(load, "applied load")]},
         {"x": monitor["time"], "y": [-u * 1e3 for u in monitor["uz"]], "label": "block top settlement",
          "ylabel": "settlement [mm]", "lines": []},
+        results.interface_work_panel(series),
     ])
     checks = [
         # At rest the bed carries the applied load (frictionless side walls); 5 % is the stability criterion

@@ -74,7 +74,7 @@ n, windows = coupling.subcycles, int(round(p["duration_s"] / coupling.femDt))
 load = p["load_pressure"] * L * W
 print(f"coupled: O.dt={O.dt:.2e} s, {n} DEM steps per FEM step, {windows} windows, load {load:.1f} N", flush=True)
 
-series = {"time": [], "interface_force": [], "kinetic_energy": [], "floor_force_z": []}
+series = {"time": [], "interface_force": [], "interface_work_dem": [], "interface_work_fem": [], "kinetic_energy": [], "floor_force_z": []}
 wall_start = time.monotonic()
 coupling_start = O.time  # the FEM clock starts at the handshake; record on the same clock
 
@@ -82,6 +82,8 @@ coupling_start = O.time  # the FEM clock starts at the handshake; record on the 
 def record():
     series["time"].append(O.time - coupling_start)
     series["interface_force"].append(tuple(coupling.totalForce))
+    series["interface_work_dem"].append(coupling.interfaceWorkDem)
+    series["interface_work_fem"].append(coupling.interfaceWorkFem)
     series["kinetic_energy"].append(utils.kineticEnergy())
     series["floor_force_z"].append(O.forces.f(floor)[2])
     if len(series["time"]) % max(1, windows // 8) == 0:

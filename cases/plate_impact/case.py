@@ -36,6 +36,7 @@ def postprocess(p, out):
                              {"x": monitor["time"], "y": plate / initial, "label": "plate energy (FEM)",
                               "ylabel": "energy / initial", "lines": [(1.0, "initial sphere energy"),
                                                                      (sphere_final / initial, "sphere after rebound")]},
+                             results.interface_work_panel(series),
                          ])
     checks = [
         # Frictionless, undamped contact and energy-conserving Newmark: what is not conserved is made by the

@@ -276,15 +276,7 @@ RAILCOSIM_HOST_DEVICE inline void tetrahedronFace(const Pair& pair, const Simple
 }
 
 // Closest point of the tetrahedron in `s` to the origin, reducing `s`; false if the origin is inside.
-#ifndef RAILCOSIM_POLYHEDRA_TETRA_NOINLINE
-#define RAILCOSIM_POLYHEDRA_TETRA_NOINLINE 0
-#endif
-#if RAILCOSIM_POLYHEDRA_TETRA_NOINLINE
-RAILCOSIM_HOST_DEVICE RAILCOSIM_POLYHEDRA_NOINLINE inline bool closestOnTetrahedron(
-#else
-RAILCOSIM_HOST_DEVICE inline bool closestOnTetrahedron(
-#endif
-const Pair& pair, Simplex& s, Weights& weights, Vec3& closest) {
+RAILCOSIM_HOST_DEVICE inline bool closestOnTetrahedron(const Pair& pair, Simplex& s, Weights& weights, Vec3& closest) {
     const Vec3 x0 = point(pair, s.p0), x1 = point(pair, s.p1), x2 = point(pair, s.p2), x3 = point(pair, s.p3);
     // A flat (degenerate) tetrahedron arises in face–face contacts, where support points of parallel faces
     // are coplanar: its faces cannot separate anything, so all of them are searched instead of reporting

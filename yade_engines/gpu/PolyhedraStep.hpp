@@ -35,7 +35,7 @@ struct ContactSlot {
     std::int32_t partner;     // stone j > i, or triangle index
     std::int32_t active;      // 1 if in contact at the last evaluation
     double elasticShear[3];   // elastic tangential force on the partner [N] (kernels/HertzMindlin.hpp)
-    double normal[3];         // last contact normal (GJK warm start, fallback for core overlap)
+    double normal[3];         // last contact normal or separating axis (filter axis, GJK start without a simplex, core-overlap fallback)
     double overlap;           // last overlap δ [m] (unloading correction of the tangential spring)
     std::uint64_t simplex;    // last GJK simplex (support vertex pairs, CoreDistance::simplex): warm start; 0 if none
 };
@@ -379,10 +379,7 @@ RAILCOSIM_HOST_DEVICE inline ContactGeometry contactGeometry(const ConvexCore& A
                                                              unsigned long long* counters) {
     ContactGeometry result{false, 0.0, Vec3{0.0, 0.0, 0.0}, Vec3{0.0, 0.0, 0.0}};
     const Vec3 guess = hasSlotNormal(slot) ? slotNormal(slot) : centreLine;
-#ifndef RAILCOSIM_POLYHEDRA_WARM_SIMPLEX
-#define RAILCOSIM_POLYHEDRA_WARM_SIMPLEX 1
-#endif
-    const CoreDistance d = coreDistance(A, B, guess, radiusA + radiusB, RAILCOSIM_POLYHEDRA_WARM_SIMPLEX ? slot.simplex : 0);
+    const CoreDistance d = coreDistance(A, B, guess, radiusA + radiusB, slot.simplex);
     slot.simplex = d.simplex;
     Vec3 n;
     double gap;
@@ -489,40 +486,6 @@ RAILCOSIM_HOST_DEVICE inline bool pairProvenApart(const SystemView& s, int i, lo
     return apart;
 }
 
-// Narrow phase of stones i (A) and j (B) in A's body frame: A's core is its template as stored (no
-// rotation, no translation), B's core is placed by R_Aᵀ R_B and R_Aᵀ (x_B − x_A). GJK then keeps one
-// rotation instead of two in flight and works near the origin; normal, point and the slot's axis are
-// turned back to the world frame.
-RAILCOSIM_HOST_DEVICE inline ContactGeometry pairGeometryInFrameOfA(const SystemView& s, int i, int j, const ShapeData& shapeA,
-                                                                    const ShapeData& shapeB, ContactSlot& slot) {
-    const Quat orientationA = s.rotation[i].orientation;
-    const Rotation rotationA = rotationMatrix(orientationA);
-    const Rotation rotationB = rotationMatrix(s.rotation[j].orientation);
-    Rotation relative;
-    for (int r = 0; r < 3; ++r) {
-        for (int c = 0; c < 3; ++c) {
-            relative.m[3 * r + c] = rotationA.m[r] * rotationB.m[c] + rotationA.m[3 + r] * rotationB.m[3 + c] + rotationA.m[6 + r] * rotationB.m[6 + c];
-        }
-    }
-    const Vec3 offset = applyTransposed(rotationA, load3(s.position, j) - load3(s.position, i));
-    const ConvexCore coreA{s.shapeVertices + 3 * shapeA.firstVertex, shapeA.vertexCount, Rotation{{1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0}},
-                           Vec3{0.0, 0.0, 0.0}, nullptr};
-    const ConvexCore coreB{s.shapeVertices + 3 * shapeB.firstVertex, shapeB.vertexCount, relative, offset, nullptr};
-    const Vec3 worldNormal = slotNormal(slot);
-    const Vec3 localNormal = applyTransposed(rotationA, worldNormal);
-    store3(slot.normal, 0, localNormal);
-    ContactGeometry g = contactGeometry(coreA, coreB, shapeA.dilationRadius, shapeB.dilationRadius, offset, s.featureTolerance, slot, s.counters);
-    if (!g.touching) {
-        store3(slot.normal, 0, rotate(orientationA, slotNormal(slot)));  // the released axis, in the world frame
-        return g;
-    }
-    // Back to the world frame through the quaternion: 4 numbers held across GJK instead of the 9 of R_A.
-    store3(slot.normal, 0, worldNormal);  // contactForce writes the new normal
-    g.normal = rotate(orientationA, g.normal);
-    g.point = load3(s.position, i) + rotate(orientationA, g.point);
-    return g;
-}
-
 // Narrow phase and contact law of candidate `index` of stone i; adds the force and torque to both stones
 // (atomically: other threads add to the same stones) and writes the contact output. True when in contact.
 RAILCOSIM_HOST_DEVICE inline bool pairContact(const SystemView& s, int i, long long index) {
@@ -530,17 +493,10 @@ RAILCOSIM_HOST_DEVICE inline bool pairContact(const SystemView& s, int i, long l
     const int partner = slot.partner;
     const ShapeData& shapeA = s.shapes[s.shape[i]];
     const ShapeData& shapeB = s.shapes[s.shape[partner]];
-#ifndef RAILCOSIM_POLYHEDRA_BODY_FRAME
-#define RAILCOSIM_POLYHEDRA_BODY_FRAME 1
-#endif
-#if RAILCOSIM_POLYHEDRA_BODY_FRAME
-    const ContactGeometry g = pairGeometryInFrameOfA(s, i, partner, shapeA, shapeB, slot);
-#else
     const ConvexCore coreA = stoneCore(s, i);
     const ConvexCore coreB = stoneCore(s, partner);
     const ContactGeometry g =
         contactGeometry(coreA, coreB, shapeA.dilationRadius, shapeB.dilationRadius, coreB.position - coreA.position, s.featureTolerance, slot, s.counters);
-#endif
     if (!g.touching) {
         s.pairSlots[index] = slot;
         return false;

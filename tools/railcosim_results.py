@@ -61,6 +61,14 @@ def interface_work_panel(series):
             "more": [(series["interface_work_fem"], "interface work, FEM side (F·ΔP per window)")]}
 
 
+def save_dem_outputs(out, series, info, **arrays):
+    """What every case's dem.py leaves for its post-processing: dem_timeseries.npz (each series as a float
+    array, plus `arrays` as given) and dem_info.json."""
+    np.savez_compressed(os.path.join(out, "dem_timeseries.npz"), **{k: np.asarray(v, float) for k, v in series.items()}, **arrays)
+    with open(os.path.join(out, "dem_info.json"), "w") as f:
+        json.dump(info, f, indent=2)
+
+
 def participant_summary(dem, fem):
     """The run-contract fields 'dem', 'fem' and 'coupling' of summary.json from dem_info.json and
     fem_summary.json (bridge time = encoding + transfer on both sides; force lumping listed apart)."""

@@ -89,6 +89,16 @@ double SpringMass::advance(double& displacement, double& velocity, double force,
   return (force - stiffness * displacement) / mass;
 }
 
+ParticipantConfig participantConfig(const Options& options, CouplingScheme scheme) {
+  ParticipantConfig config;
+  config.name = options.text("name");
+  config.endpoint = options.text("endpoint");
+  config.timeoutSeconds = options.number("timeout");
+  config.heartbeatSeconds = options.number("heartbeat");
+  config.couplingScheme = toString(scheme);
+  return config;
+}
+
 int runReportingErrors(const char* program, const std::function<int()>& body) {
   try {
     return body();

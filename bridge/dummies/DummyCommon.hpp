@@ -2,6 +2,8 @@
 #pragma once
 
 #include "railcosim/InterfaceMesh.hpp"
+#include "railcosim/Participant.hpp"
+#include "railcosim/WindowInterpolation.hpp"
 
 #include <cmath>
 #include <functional>
@@ -41,6 +43,9 @@ struct SpringMass {
   /// Advances (u, v) by dt under constant force; returns the acceleration at the end.
   double advance(double& displacement, double& velocity, double force, double dt) const;
 };
+
+/// The participant settings both stand-ins take from --name, --endpoint, --timeout, --heartbeat.
+ParticipantConfig participantConfig(const Options& options, CouplingScheme scheme);
 
 /// Runs a stand-in's main body and maps failures to its documented exit status (2 peer lost, 3 protocol
 /// error, 1 anything else), printing "PROGRAM: KIND: message" on stderr.

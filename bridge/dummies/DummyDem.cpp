@@ -53,13 +53,7 @@ int main(int argc, char** argv) {
     model.mass = options.number("mass");
     model.stiffness = options.number("stiffness");
 
-    ParticipantConfig config;
-    config.name = options.text("name");
-    config.endpoint = options.text("endpoint");
-    config.timeoutSeconds = options.number("timeout");
-    config.heartbeatSeconds = options.number("heartbeat");
-    config.couplingScheme = toString(scheme);
-    DemParticipant participant(config);
+    DemParticipant participant(dummy::participantConfig(options, scheme));
     const InterfaceSetup setup = participant.initialize();
     const std::size_t nodes = setup.mesh.nodeCount();
     const double dt = setup.femTimeStep;

@@ -59,13 +59,7 @@ int main(int argc, char** argv) {
     state.velocities.assign(3 * nodes, 0.0);
     state.accelerations.assign(3 * nodes, 0.0);
 
-    ParticipantConfig config;
-    config.name = options.text("name");
-    config.endpoint = options.text("endpoint");
-    config.timeoutSeconds = options.number("timeout");
-    config.heartbeatSeconds = options.number("heartbeat");
-    config.couplingScheme = toString(scheme);
-    FemParticipant participant(config);
+    FemParticipant participant(dummy::participantConfig(options, scheme));
     participant.initialize(mesh, dt, state);
 
     // One FEM step t_i -> t_i+1 with the vertical nodal forces in appliedForce.

@@ -126,12 +126,8 @@ O.run(windows * n + 1, True)
 coupling.finalize()
 wall = time.monotonic() - wall_start
 
-np.savez_compressed(os.path.join(out, "dem_timeseries.npz"),
-                    **{k: np.asarray(v, dtype=float) for k, v in series.items()},
-                    triangles=np.asarray([tuple(t) for t in coupling.triangles], dtype=int))
 info = {**results.coupling_info(coupling), "steps": O.iter, "dt": O.dt, "particles": count, "total_particle_mass_kg": total_mass,
         "wall_time_s": wall, "final_kinetic_energy_j": utils.kineticEnergy(), "particles_below_surface": particles_below_surface()}
-with open(os.path.join(out, "dem_info.json"), "w") as f:
-    json.dump(info, f, indent=2)
+results.save_dem_outputs(out, series, info, triangles=np.asarray([tuple(t) for t in coupling.triangles], dtype=int))
 print(f"done: {O.iter} steps in {wall:.1f} s; bridge {coupling.bridgeTime:.3f} s over {coupling.exchanges} exchanges",
       flush=True)

@@ -95,9 +95,7 @@ def record():
 O.engines = O.engines + [PyRunner(command="record()", iterPeriod=n, initRun=False)]
 O.run(windows * n + 1, True)
 coupling.finalize()
-np.savez_compressed(os.path.join(out, "dem_timeseries.npz"), **{k: np.asarray(v, float) for k, v in series.items()})
 info = {**results.coupling_info(coupling), "steps": O.iter, "dt": O.dt, "particles": len(spheres),
         "wall_time_s": time.monotonic() - wall_start, "load_n": load,
         "final_kinetic_energy_j": utils.kineticEnergy()}
-with open(os.path.join(out, "dem_info.json"), "w") as f:
-    json.dump(info, f, indent=2)
+results.save_dem_outputs(out, series, info)

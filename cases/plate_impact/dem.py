@@ -59,12 +59,10 @@ wall_start = time.monotonic()
 O.run(windows * n + 1, True)
 coupling.finalize()
 wall = time.monotonic() - wall_start
-np.savez_compressed(os.path.join(out, "dem_timeseries.npz"), **{k: np.asarray(v, float) for k, v in series.items()})
 info = {**results.coupling_info(coupling), "steps": O.iter, "dt": O.dt, "particles": 1, "wall_time_s": wall,
         "initial_energy_j": initial_energy,
         "final_sphere_energy_j": series["sphere_kinetic_energy"][-1],
         "contact_windows": int(sum(1 for c in series["surface_contacts"] if c > 0))}
-with open(os.path.join(out, "dem_info.json"), "w") as f:
-    json.dump(info, f, indent=2)
+results.save_dem_outputs(out, series, info)
 print(f"done: rebound {series['sphere_velocity_z'][-1]:.4f} m/s, sphere keeps "
       f"{info['final_sphere_energy_j'] / initial_energy:.2%} of its energy; {wall:.1f} s", flush=True)

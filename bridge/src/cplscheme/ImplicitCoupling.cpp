@@ -67,13 +67,14 @@ void ImplicitWindowIteration::setSurface() {
 ImplicitWindowIteration::Outcome ImplicitWindowIteration::judge(const NodalKinematics& femEnd, bool surfaceTouched) {
   if (femEnd.positions.size() != assumed_.size()) throw Error("implicit coupling: FEM end state has the wrong size");
   residual_.resize(assumed_.size());
-  std::vector<double> displacement(assumed_.size());
+  double displacementSquares = 0.0;
   for (std::size_t k = 0; k < assumed_.size(); ++k) {
     residual_[k] = femEnd.positions[k] - assumed_[k];
-    displacement[k] = femEnd.positions[k] - reference_[k];
+    const double displacement = femEnd.positions[k] - reference_[k];
+    displacementSquares += displacement * displacement;
   }
   residualNorm_ = rms(residual_);
-  limit_ = settings_.tolerance * rms(displacement) + settings_.absoluteTolerance;
+  limit_ = settings_.tolerance * std::sqrt(displacementSquares / static_cast<double>(assumed_.size())) + settings_.absoluteTolerance;
   if (!surfaceTouched || residualNorm_ <= limit_) return Outcome::Converged;
   if (static_cast<int>(iteration_) + 1 >= settings_.maxIterations) return Outcome::GaveUp;
   if (settings_.aitken && !previousResidual_.empty()) {

@@ -445,14 +445,14 @@ bool FemCouplingEngine::exchange()
 	participant->sendForces(message);
 	railcosim::NodalKinematics received = participant->receiveKinematics(predictive ? window + 1 : window);
 	waitTime += participant->statistics().waitSeconds - before;
+	std::fill(forceSum.begin(), forceSum.end(), 0.0); // the window's sum is in the message
 	if (implicitWindow) {
 		const auto outcome = implicitWindow->judge(received, surfaceTouched);
+		surfaceTouched     = false;
 		++implicitPasses;
 		lastResidual = implicitWindow->residualNorm();
 		if (outcome == railcosim::ImplicitWindowIteration::Outcome::Repeat) {
 			windowStart = std::make_shared<railcosim::NodalKinematics>(implicitWindow->surfaceStart());
-			std::fill(forceSum.begin(), forceSum.end(), 0.0);
-			surfaceTouched = false;
 			return false;
 		}
 		lastWindowPasses = implicitWindow->iteration() + 1;
@@ -464,32 +464,26 @@ bool FemCouplingEngine::exchange()
 				                                      << " m); its last pass is accepted. Counted in unconvergedWindows; reported once.");
 			++unconvergedWindows;
 		}
-		if (auditEnergy)
-			for (size_t k = 0; k < message.forces.size(); ++k)
-				interfaceWorkFem += message.forces[k] * (received.positions[k] - accepted->positions[k]);
-		accepted = std::make_shared<railcosim::NodalKinematics>(std::move(received));
-		implicitWindow->startWindow(*accepted);
-		windowStart = std::make_shared<railcosim::NodalKinematics>(implicitWindow->surfaceStart());
-		std::fill(forceSum.begin(), forceSum.end(), 0.0);
-		surfaceTouched = false;
-		++window;
-		++exchanges;
-		return true;
 	}
 	if (auditEnergy) {
 		// The FEM applies the sent forces over the step that produced `received`; its displacement over
-		// that step starts from the previous FEM state (JIT: window start; predictive: last received).
-		const std::vector<double>& from = predictive ? lastReceived->positions : windowStart->positions;
+		// that step starts from its previous state (JIT: window start; predictive: last received; implicit:
+		// the accepted state at the window start).
+		const std::vector<double>& from
+		        = implicitWindow ? accepted->positions : (predictive ? lastReceived->positions : windowStart->positions);
 		for (size_t k = 0; k < message.forces.size(); ++k)
 			interfaceWorkFem += message.forces[k] * (received.positions[k] - from[k]);
 	}
-	if (predictive) {
+	if (implicitWindow) {
+		accepted = std::make_shared<railcosim::NodalKinematics>(std::move(received));
+		implicitWindow->startWindow(*accepted);
+		windowStart = std::make_shared<railcosim::NodalKinematics>(implicitWindow->surfaceStart());
+	} else if (predictive) {
 		windowStart  = std::make_shared<railcosim::NodalKinematics>(railcosim::predictiveStart(*lastReceived, received, femDt));
 		lastReceived = std::make_shared<railcosim::NodalKinematics>(std::move(received));
 	} else {
 		windowStart = std::make_shared<railcosim::NodalKinematics>(std::move(received));
 	}
-	std::fill(forceSum.begin(), forceSum.end(), 0.0);
 	++window;
 	++exchanges;
 	return true;

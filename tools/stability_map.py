@@ -31,7 +31,12 @@ STABLE_ENERGY_ERROR = 0.10
 
 
 def parse_point(text):
-    return dict(item.split("=", 1) for item in text.split(",") if item)
+    """"KEY=V,KEY=V" -> {KEY: V}; SystemExit naming the bad item otherwise."""
+    items = [item for item in text.split(",") if item]
+    bad = [item for item in items if "=" not in item or not item.split("=", 1)[0]]
+    if bad or not items:
+        sys.exit(f"stability_map.py: '{text}' is not KEY=VALUE[,KEY=VALUE...] (bad part: {bad[0] if bad else 'empty'})")
+    return dict(item.split("=", 1) for item in items)
 
 
 def run_point(root, case, run_dir, settings, smoke):
@@ -92,6 +97,8 @@ def main(argv):
     name = os.path.basename(os.path.abspath(args.case).rstrip("/"))
     out = os.path.abspath(args.out or os.path.join("results", f"{name}-stability"))
     os.makedirs(out, exist_ok=True)
+    if any("=" not in item or not item.split("=", 1)[1] for item in args.grid):
+        parser.error("--grid needs KEY=V1,V2,...")
     axes = [(item.split("=", 1)[0], item.split("=", 1)[1].split(",")) for item in args.grid]
     keys = [k for k, _ in axes]
     points = [dict(p) for p in itertools.product(*[[(k, v) for v in values] for k, values in axes])]

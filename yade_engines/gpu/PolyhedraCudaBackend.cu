@@ -1,6 +1,7 @@
 // CUDA backend: the step functions of PolyhedraStep.hpp as kernels, state resident on the device; one step =
-// predict, pair filter + narrow phase, wall filter + narrow phase + law, correct (+ grid rebuild), replayed
-// as CUDA Graphs of one rebuild interval.
+// predict (fused with the previous step's correct), pair filter + narrow phase (+ resume of the deferred
+// GJK runs), wall filter + narrow phase + law; a neighbour rebuild lists the candidates; replayed as CUDA
+// Graphs of one rebuild interval, which ends with a correct.
 #include <cub/device/device_radix_sort.cuh>
 #include <cuda_runtime.h>
 
@@ -57,13 +58,32 @@ constexpr int blockSize = 128;
 
 int blocks(int count) { return (count + blockSize - 1) / blockSize; }
 
+// Start of a step; with CorrectFirst also the end of the previous one (its correct and this predict need the
+// same stone state, so one kernel reads and writes it once instead of twice; same operations per stone as
+// the CPU reference's separate calls).
+// The block's rotation states (240 bytes each, read and written field by field) pass through shared memory
+// with coalesced copies: one thread per state touching 30 scattered doubles made these kernels
+// transaction-bound (0.69 ms for correct + predict at 1e6 stones, ~1 TB/s).
+template <bool CorrectFirst>
 __global__ void __launch_bounds__(blockSize) predictKernel(SystemView s) {
-    const int k = blockIdx.x * blockDim.x + threadIdx.x;
+    constexpr int words = sizeof(kernels::RotationState) / sizeof(double);
+    __shared__ double staged[blockSize * words];
+    const int blockFirst = blockIdx.x * blockDim.x;
+    const int stones = min(blockSize, max(0, s.stoneCount - blockFirst));
+    const double* global = reinterpret_cast<const double*>(s.rotation + blockFirst);
+    for (int w = threadIdx.x; w < stones * words; w += blockSize) staged[w] = global[w];
+    __syncthreads();
+    const int k = blockFirst + threadIdx.x;
     if (k < s.stoneCount) {
-        predictStone(s, k);
+        auto& rotation = reinterpret_cast<kernels::RotationState*>(staged)[threadIdx.x];
+        if (CorrectFirst) correctStone(s, k, rotation);
+        predictStone(s, k, rotation);
     } else if (k - s.stoneCount < s.nodeCount) {
         moveNode(s, k - s.stoneCount);
     }
+    __syncthreads();
+    double* out = reinterpret_cast<double*>(s.rotation + blockFirst);
+    for (int w = threadIdx.x; w < stones * words; w += blockSize) out[w] = staged[w];
 }
 
 // Sum of `value` over the warp, added to the active-contact counter by one lane (one atomic per warp
@@ -85,34 +105,73 @@ __device__ inline void appendWhere(bool keep, long long index, std::uint32_t* li
     if (keep) list[base + __popc(mask & ((1u << lane) - 1u))] = static_cast<std::uint32_t>(index);
 }
 
-// Candidates, first pass: one thread per slot, numbered slot-major (thread t is slot k = t / N of stone
-// i = t mod N), so that whole warps past the longest lists of their stones retire at once. Slots not
-// proven apart by the cheap tests are appended to `survivors`. Wall = true: the wall candidate lists.
-template <bool Wall>
-__global__ void __launch_bounds__(blockSize) filterKernel(SystemView s, std::uint32_t* survivors, unsigned* survivorCount) {
-    const long long t = static_cast<long long>(blockIdx.x) * blockDim.x + threadIdx.x;
-    const int k = static_cast<int>(t / s.stoneCount);
-    const int i = static_cast<int>(t - static_cast<long long>(k) * s.stoneCount);
-    const int perStone = Wall ? s.maxWalls : s.maxPairs;
-    bool survives = false;
-    long long index = 0;
-    if (k < perStone && k < (Wall ? s.wallCount[i] : s.pairCount[i])) {
-        index = static_cast<long long>(i) * perStone + k;
-        survives = Wall ? !wallProvenApart(s, i, index) : !pairProvenApart(s, i, index);
+// Appends the slots 0..count−1 of stone i (slot numbers i · perStone + k) to `list`, one atomic per warp.
+// Every lane must call it.
+__device__ inline void appendSlots(int i, int count, int perStone, std::uint32_t* list, unsigned* total) {
+    const unsigned lane = threadIdx.x & 31u;
+    int scan = count;  // inclusive prefix sum over the warp's lanes
+    for (int d = 1; d < 32; d <<= 1) {
+        const int below = __shfl_up_sync(0xffffffffu, scan, d);
+        if (lane >= static_cast<unsigned>(d)) scan += below;
     }
-    appendWhere(survives, index, survivors, survivorCount);
+    const int warpTotal = __shfl_sync(0xffffffffu, scan, 31);
+    unsigned base = 0;
+    if (lane == 31u && warpTotal > 0) base = atomicAdd(total, static_cast<unsigned>(warpTotal));
+    base = __shfl_sync(0xffffffffu, base, 31);
+    const unsigned start = base + static_cast<unsigned>(scan - count);
+    for (int k = 0; k < count; ++k) list[start + k] = static_cast<std::uint32_t>(static_cast<long long>(i) * perStone + k);
+}
+
+// Flat lists of every candidate slot (pairs, walls) and of the stones with wall candidates, rebuilt with
+// the neighbour lists: the filters then run one thread per existing candidate instead of one per possible
+// slot (24 per stone, most of them empty: 0.92 ms of a 4.4 ms step at 1e6 stones went to launching and
+// retiring those), and the wall law one per stone near a wall instead of one per stone.
+// counts: pair slots, wall slots, wall stones.
+__global__ void __launch_bounds__(blockSize) listCandidatesKernel(SystemView s, std::uint32_t* pairList, std::uint32_t* wallList,
+                                                                  std::uint32_t* wallStones, unsigned* counts) {
+    const int i = blockIdx.x * blockDim.x + threadIdx.x;
+    const bool stone = i < s.stoneCount;
+    const int walls = stone ? s.wallCount[i] : 0;
+    appendSlots(i, stone ? s.pairCount[i] : 0, s.maxPairs, pairList, counts);
+    appendSlots(i, walls, s.maxWalls, wallList, counts + 1);
+    appendWhere(walls > 0, i, wallStones, counts + 2);
+}
+
+// Candidates, first pass: one thread per listed candidate slot (grid-stride over resident blocks). Slots not
+// proven apart by the cheap tests are appended to `survivors`. Wall = true: the wall candidates.
+template <bool Wall>
+__global__ void __launch_bounds__(blockSize) filterKernel(SystemView s, const std::uint32_t* candidates, const unsigned* candidateCount,
+                                                          std::uint32_t* survivors, unsigned* survivorCount) {
+    const unsigned count = *candidateCount;
+    const unsigned stride = gridDim.x * blockDim.x;
+    const unsigned first = blockIdx.x * blockDim.x + threadIdx.x;
+    const unsigned warpFirst = first - (threadIdx.x & 31u);
+    const int perStone = Wall ? s.maxWalls : s.maxPairs;
+    for (unsigned t = first, w = warpFirst; w < count; t += stride, w += stride) {
+        bool survives = false;
+        long long index = 0;
+        if (t < count) {
+            index = candidates[t];
+            const int i = static_cast<int>(index / perStone);
+            survives = Wall ? !wallProvenApart(s, i, index) : !pairProvenApart(s, i, index);
+        }
+        appendWhere(survives, index, survivors, survivorCount);
+    }
 }
 
 // Second pass: GJK (and for pairs the contact law) of the survivors, one per thread (grid-stride over a grid
 // of resident blocks, since the survivor count is only known on the device). Minimum resident blocks per
 // multiprocessor caps its registers (1 → 254, 3 → 168 with spills: 6 % slower at 1e6 stones, measured);
 // override with -DRAILCOSIM_POLYHEDRA_CONTACT_MIN_BLOCKS=n.
+// Pairs run in two launches: the first stops GJK after pairFirstPassIterations and appends the unfinished
+// candidates to `deferred`; the second (Resume) finishes those (PolyhedraStep.hpp, pairFirstPassIterations).
 #ifndef RAILCOSIM_POLYHEDRA_CONTACT_MIN_BLOCKS
 #define RAILCOSIM_POLYHEDRA_CONTACT_MIN_BLOCKS 1
 #endif
-template <bool Wall>
+template <bool Wall, bool Resume>
 __global__ void __launch_bounds__(blockSize, RAILCOSIM_POLYHEDRA_CONTACT_MIN_BLOCKS)
-    narrowPhaseKernel(SystemView s, const std::uint32_t* survivors, const unsigned* survivorCount) {
+    narrowPhaseKernel(SystemView s, const std::uint32_t* survivors, const unsigned* survivorCount, std::uint32_t* deferred,
+                      unsigned* deferredCount) {
     const unsigned count = *survivorCount;
     const unsigned stride = gridDim.x * blockDim.x;
     unsigned active = 0;
@@ -120,23 +179,35 @@ __global__ void __launch_bounds__(blockSize, RAILCOSIM_POLYHEDRA_CONTACT_MIN_BLO
     const unsigned first = blockIdx.x * blockDim.x + threadIdx.x;
     const unsigned warpFirst = first - (threadIdx.x & 31u);
     for (unsigned t = first, w = warpFirst; w < count; t += stride, w += stride) {
+        bool defer = false;
+        long long index = 0;
         if (t < count) {
-            const long long index = survivors[t];
+            index = survivors[t];
             if (Wall) {
                 wallNarrowPhase(s, static_cast<int>(index / s.maxWalls), index);
             } else {
-                active += pairContact(s, static_cast<int>(index / s.maxPairs), index) ? 1u : 0u;
+                const PairOutcome outcome =
+                    pairContact(s, static_cast<int>(index / s.maxPairs), index, Resume ? 64 : pairFirstPassIterations);
+                active += outcome == PairOutcome::touching ? 1u : 0u;
+                defer = outcome == PairOutcome::deferred;
             }
         }
+        if (!Wall && !Resume) appendWhere(defer, index, deferred, deferredCount);
     }
     if (!Wall) addActiveContactsOfWarp(s, active);
 }
 
-// Wall contact law, one thread per stone (the coplanar-duplicate test needs all of a stone's wall contacts).
-__global__ void __launch_bounds__(blockSize) wallForcesKernel(SystemView s) {
-    const int i = blockIdx.x * blockDim.x + threadIdx.x;
+// Wall contact law, one thread per listed stone (the coplanar-duplicate test needs all of a stone's wall
+// contacts); grid-stride over the list of stones with wall candidates.
+__global__ void __launch_bounds__(blockSize) wallForcesKernel(SystemView s, const std::uint32_t* stones, const unsigned* stoneCount) {
+    const unsigned count = *stoneCount;
+    const unsigned stride = gridDim.x * blockDim.x;
+    const unsigned first = blockIdx.x * blockDim.x + threadIdx.x;
+    const unsigned warpFirst = first - (threadIdx.x & 31u);
     unsigned active = 0;
-    if (i < s.stoneCount && s.wallCount[i] > 0) active = static_cast<unsigned>(stoneWallForces(s, i));
+    for (unsigned t = first, w = warpFirst; w < count; t += stride, w += stride) {
+        if (t < count) active += static_cast<unsigned>(stoneWallForces(s, static_cast<int>(stones[t])));
+    }
     addActiveContactsOfWarp(s, active);
 }
 
@@ -144,6 +215,7 @@ __global__ void __launch_bounds__(blockSize) correctKernel(SystemView s) {
     const int i = blockIdx.x * blockDim.x + threadIdx.x;
     if (i < s.stoneCount) correctStone(s, i);
 }
+static_assert(sizeof(kernels::RotationState) % sizeof(double) == 0, "rotation states are staged as doubles");
 
 __global__ void __launch_bounds__(blockSize) cellKeyKernel(SystemView s) {
     const int i = blockIdx.x * blockDim.x + threadIdx.x;
@@ -161,10 +233,13 @@ __global__ void __launch_bounds__(blockSize) neighbourKernel(SystemView s, const
     if (i < s.stoneCount) buildNeighbours(s, i, previousPairs, previousPairCount, previousWalls, previousWallCount);
 }
 
+constexpr auto startStepKernel = predictKernel<false>;
+constexpr auto nextStepKernel = predictKernel<true>;
 constexpr auto pairFilterKernel = filterKernel<false>;
 constexpr auto wallFilterKernel = filterKernel<true>;
-constexpr auto pairNarrowPhaseKernel = narrowPhaseKernel<false>;
-constexpr auto wallNarrowPhaseKernel = narrowPhaseKernel<true>;
+constexpr auto pairNarrowPhaseKernel = narrowPhaseKernel<false, false>;
+constexpr auto pairResumeKernel = narrowPhaseKernel<false, true>;
+constexpr auto wallNarrowPhaseKernel = narrowPhaseKernel<true, false>;
 
 class CudaBackend final : public PolyhedraBackend {
 public:
@@ -211,19 +286,27 @@ public:
             throw Error("polyhedra CUDA backend: stones × maxNeighbours (or maxWallNeighbours) = " + std::to_string(slots) +
                         " does not fit the 32-bit candidate lists; lower maxNeighbours or split the system");
         survivors_.resize(static_cast<std::size_t>(slots > 0 ? slots : 1));
+        deferred_.resize(static_cast<std::size_t>(slots > 0 ? slots : 1));
+        pairCandidates_.resize(static_cast<std::size_t>(slots > 0 ? slots : 1));
+        wallCandidates_.resize(static_cast<std::size_t>(d.stoneCount) * (d.maxWalls > 0 ? d.maxWalls : 1));
+        wallStones_.resize(static_cast<std::size_t>(d.stoneCount > 0 ? d.stoneCount : 1));
+        candidateCount_.resize(3);  // pair slots, wall slots, wall stones
         wallSurvivors_.resize(static_cast<std::size_t>(d.stoneCount) * (d.maxWalls > 0 ? d.maxWalls : 1));
         wallGeometry_.resize(static_cast<std::size_t>(d.stoneCount) * (d.maxWalls > 0 ? d.maxWalls : 1));
-        survivorCount_.resize(2);  // pairs, walls
+        survivorCount_.resize(3);  // pairs, walls, deferred pairs
         int device = 0, multiprocessors = 0, perMultiprocessor = 0;
         check(cudaGetDevice(&device), "cudaGetDevice");
         check(cudaDeviceGetAttribute(&multiprocessors, cudaDevAttrMultiProcessorCount, device), "device attribute");
         check(cudaOccupancyMaxActiveBlocksPerMultiprocessor(&perMultiprocessor, pairNarrowPhaseKernel, blockSize, 0), "occupancy query");
         contactBlocks_ = multiprocessors * (perMultiprocessor > 0 ? perMultiprocessor : 1);
+        check(cudaOccupancyMaxActiveBlocksPerMultiprocessor(&perMultiprocessor, pairFilterKernel, blockSize, 0), "occupancy query");
+        filterBlocks_ = multiprocessors * (perMultiprocessor > 0 ? perMultiprocessor : 1);
         std::size_t bytes = 0;
         check(cub::DeviceRadixSort::SortPairs(nullptr, bytes, rawKey_.get(), cellKey_.get(), rawStone_.get(), sortedStone_.get(),
                                               d.stoneCount, 0, sortBits(d.tableSize), stream_),
               "cub sort size query");
         sortTemp_.resize(bytes > 0 ? bytes : 1);
+        enqueueCandidateLists(d);  // the uploaded neighbour lists
         check(cudaStreamSynchronize(stream_), "upload");
         invalidateGraphs();
     }
@@ -369,44 +452,61 @@ private:
         neighbourKernel<<<blocks(d.stoneCount), blockSize, 0, stream_>>>(v, pairSlots_[previous].get(), pairCount_[previous].get(),
                                                                           wallSlots_[previous].get(), wallCount_[previous].get());
         check(cudaGetLastError(), "neighbour kernel");
+        enqueueCandidateLists(d);
+    }
+
+    void enqueueCandidateLists(HostData& d) {
+        check(cudaMemsetAsync(candidateCount_.get(), 0, 3 * sizeof(unsigned), stream_), "memset");
+        if (d.stoneCount == 0) return;
+        listCandidatesKernel<<<blocks(d.stoneCount), blockSize, 0, stream_>>>(view(d), pairCandidates_.get(), wallCandidates_.get(),
+                                                                               wallStones_.get(), candidateCount_.get());
+        check(cudaGetLastError(), "candidate list kernel");
     }
 
     // Contact forces of the state in `v`: pair candidates (filter, then GJK and contact law on the survivors),
     // then wall triangles.
     void enqueueForces(HostData& d, const SystemView& v) {
-        check(cudaMemsetAsync(survivorCount_.get(), 0, 2 * sizeof(unsigned), stream_), "memset");
+        check(cudaMemsetAsync(survivorCount_.get(), 0, 3 * sizeof(unsigned), stream_), "memset");
         const long long slots = static_cast<long long>(d.stoneCount) * d.maxPairs;
-        const int slotBlocks = static_cast<int>((slots + blockSize - 1) / blockSize);
         if (slots > 0) {
-            pairFilterKernel<<<slotBlocks, blockSize, 0, stream_>>>(v, survivors_.get(), survivorCount_.get());
+            pairFilterKernel<<<filterBlocks_, blockSize, 0, stream_>>>(v, pairCandidates_.get(), candidateCount_.get(), survivors_.get(),
+                                                                       survivorCount_.get());
             check(cudaGetLastError(), "pair filter kernel");
-            pairNarrowPhaseKernel<<<contactBlocks_, blockSize, 0, stream_>>>(v, survivors_.get(), survivorCount_.get());
+            pairNarrowPhaseKernel<<<contactBlocks_, blockSize, 0, stream_>>>(v, survivors_.get(), survivorCount_.get(), deferred_.get(),
+                                                                             survivorCount_.get() + 2);
             check(cudaGetLastError(), "pair contact kernel");
+            pairResumeKernel<<<contactBlocks_, blockSize, 0, stream_>>>(v, deferred_.get(), survivorCount_.get() + 2, nullptr, nullptr);
+            check(cudaGetLastError(), "pair resume kernel");
         }
         const long long wallSlots = static_cast<long long>(d.stoneCount) * d.maxWalls;
         if (d.triangleCount() > 0 && wallSlots > 0) {
-            wallFilterKernel<<<static_cast<int>((wallSlots + blockSize - 1) / blockSize), blockSize, 0, stream_>>>(v, wallSurvivors_.get(),
-                                                                                                             survivorCount_.get() + 1);
+            wallFilterKernel<<<filterBlocks_, blockSize, 0, stream_>>>(v, wallCandidates_.get(), candidateCount_.get() + 1, wallSurvivors_.get(),
+                                                                       survivorCount_.get() + 1);
             check(cudaGetLastError(), "wall filter kernel");
-            wallNarrowPhaseKernel<<<contactBlocks_, blockSize, 0, stream_>>>(v, wallSurvivors_.get(), survivorCount_.get() + 1);
+            wallNarrowPhaseKernel<<<contactBlocks_, blockSize, 0, stream_>>>(v, wallSurvivors_.get(), survivorCount_.get() + 1, nullptr, nullptr);
             check(cudaGetLastError(), "wall narrow-phase kernel");
-            wallForcesKernel<<<blocks(d.stoneCount), blockSize, 0, stream_>>>(v);
+            wallForcesKernel<<<filterBlocks_, blockSize, 0, stream_>>>(v, wallStones_.get(), candidateCount_.get() + 2);
             check(cudaGetLastError(), "wall force kernel");
         }
     }
 
     // `count` steps, the first with a neighbour rebuild (as the CPU reference: step index % interval == 0).
+    // Each step's correct runs fused with the next step's predict; the chunk ends corrected.
     void enqueueChunk(HostData& d, int count) {
         for (int s = 0; s < count; ++s) {
             SystemView v = view(d);
-            predictKernel<<<blocks(d.stoneCount + v.nodeCount), blockSize, 0, stream_>>>(v);
+            if (s == 0) {
+                startStepKernel<<<blocks(d.stoneCount + v.nodeCount), blockSize, 0, stream_>>>(v);
+            } else {
+                nextStepKernel<<<blocks(d.stoneCount + v.nodeCount), blockSize, 0, stream_>>>(v);
+            }
             check(cudaGetLastError(), "predict kernel");
             if (s == 0) enqueueRebuild(d);
             v = view(d);
             enqueueForces(d, v);
-            correctKernel<<<blocks(d.stoneCount), blockSize, 0, stream_>>>(v);
-            check(cudaGetLastError(), "correct kernel");
         }
+        correctKernel<<<blocks(d.stoneCount), blockSize, 0, stream_>>>(view(d));
+        check(cudaGetLastError(), "correct kernel");
     }
 
     void invalidateGraphs() {
@@ -429,10 +529,12 @@ private:
     DeviceArray<std::uint32_t> cellKey_, rawKey_;
     DeviceArray<unsigned long long> counters_;
     DeviceArray<unsigned char> sortTemp_;
-    DeviceArray<std::uint32_t> survivors_, wallSurvivors_;
+    DeviceArray<std::uint32_t> survivors_, wallSurvivors_, deferred_, pairCandidates_, wallCandidates_, wallStones_;
+    DeviceArray<unsigned> candidateCount_;
     DeviceArray<ContactGeometry> wallGeometry_;
     DeviceArray<unsigned> survivorCount_;
     int contactBlocks_ = 1;  // resident blocks of the narrow-phase kernels (grid-stride over the survivors)
+    int filterBlocks_ = 1;   // resident blocks of the filter kernels (grid-stride over the candidate lists)
 };
 
 }  // namespace

@@ -103,6 +103,7 @@ struct CoreDistance {
     Vec3 axis;          // beyondCutoff only: unit direction A -> B along which the cores are ≥ cutoff apart
     int iterations;
     std::uint64_t simplex;  // final simplex as support vertex pairs (encodeSimplex), the next query's warm start
+    bool unfinished;        // stopped at the iteration limit: resume with `simplex` as the warm start
 };
 
 namespace detail {
@@ -362,8 +363,10 @@ RAILCOSIM_HOST_DEVICE inline SimplexVertex decodeSimplexVertex(std::uint64_t cod
 // warmSimplex: the `simplex` of an earlier query of the same two cores (0: none). Any support vertex pairs
 // are points of A − B, so GJK may start from them; for a persistent contact the closest features rarely
 // change between steps, and the first iteration then only confirms them.
+// iterationLimit: stop after that many iterations with `unfinished` set and the reduced simplex in `simplex`;
+// a second call warm-started from it resumes the search (the GPU defers the few long searches this way).
 RAILCOSIM_HOST_DEVICE inline CoreDistance coreDistance(const ConvexCore& A, const ConvexCore& B, const Vec3& initialDirection,
-                                                       double cutoff = 1e300, std::uint64_t warmSimplex = 0) {
+                                                       double cutoff = 1e300, std::uint64_t warmSimplex = 0, int iterationLimit = 64) {
     // Relative tolerance on the squared distance (double precision: ~1e-12 of the distance itself is
     // far below any overlap that matters, 1e-3 r_d in the tests).
     constexpr double relativeTolerance = 1e-12;
@@ -389,9 +392,18 @@ RAILCOSIM_HOST_DEVICE inline CoreDistance coreDistance(const ConvexCore& A, cons
         s.count = 1;
         v = detail::point(pair, s.p0);
     }
-    CoreDistance result{false, false, 0.0, Vec3{0.0, 0.0, 0.0}, Vec3{0.0, 0.0, 0.0}, Vec3{0.0, 0.0, 0.0}, 0, 0};
+    CoreDistance result{false, false, 0.0, Vec3{0.0, 0.0, 0.0}, Vec3{0.0, 0.0, 0.0}, Vec3{0.0, 0.0, 0.0}, 0, 0, false};
     int iteration = 0;
     for (; iteration < maxIterations; ++iteration) {
+        if (iteration >= iterationLimit) {
+            const std::uint64_t code = detail::encodeSimplex(s);
+            if (code != 0) {  // resumable (a core of more than 1024 vertices is not: it simply goes on)
+                result.unfinished = true;
+                result.iterations = iteration;
+                result.simplex = code;
+                return result;
+            }
+        }
         const double vv = kernels::dot(v, v);
         if (vv < 1e-30) {  // the origin is (numerically) in A − B
             result.intersecting = true;
@@ -455,6 +467,42 @@ RAILCOSIM_HOST_DEVICE inline CoreDistance coreDistance(const ConvexCore& A, cons
     result.pointB = pb;
     result.distance = result.intersecting ? 0.0 : kernels::norm(v);
     return result;
+}
+
+// Exact distance of core A from triangle T (a 3-vertex core) when A lies wholly on one side of T's plane
+// and its vertex nearest to that plane projects into T: for any y in A and z in T, |y − z| ≥ N·(y − z) ≥
+// h_min, and that vertex with its projection attains it. Fills `out` like coreDistance (the simplex is the
+// vertex against T's three corners, GJK's own vertex–face simplex) and returns true; false when the test
+// does not apply and GJK must decide.
+RAILCOSIM_HOST_DEVICE inline bool coreOverTriangleInterior(const ConvexCore& A, const ConvexCore& T, CoreDistance& out) {
+    const Vec3 a = vertexWorld(T, 0), b = vertexWorld(T, 1), c = vertexWorld(T, 2);
+    const Vec3 e0 = b - a, e1 = c - a;
+    Vec3 normal = kernels::cross(e0, e1);
+    const double length = kernels::norm(normal);
+    if (!(length > 0.0)) return false;  // degenerate triangle
+    normal = (1.0 / length) * normal;
+    if (kernels::dot(normal, A.position - a) < 0.0) normal = -normal;  // towards A's reference point
+    const int lowest = supportIndex(A, -normal);
+    const Vec3 x = vertexWorld(A, lowest);
+    const double height = kernels::dot(normal, x - a);
+    if (!(height > 0.0)) return false;  // A reaches the plane or beyond
+    const Vec3 p = x - height * normal;
+    // Barycentric coordinates of p in (a, b, c).
+    const Vec3 e2 = p - a;
+    const double d00 = kernels::dot(e0, e0), d01 = kernels::dot(e0, e1), d11 = kernels::dot(e1, e1);
+    const double d20 = kernels::dot(e2, e0), d21 = kernels::dot(e2, e1);
+    const double denominator = d00 * d11 - d01 * d01;
+    if (!(denominator > 0.0)) return false;
+    const double v = (d11 * d20 - d01 * d21) / denominator, w = (d00 * d21 - d01 * d20) / denominator;
+    if (v < 0.0 || w < 0.0 || v + w > 1.0) return false;  // projects outside T: an edge or corner of T is nearest
+    detail::Simplex simplex;
+    simplex.p0 = detail::SimplexVertex{lowest, 0};
+    simplex.p1 = detail::SimplexVertex{lowest, 1};
+    simplex.p2 = detail::SimplexVertex{lowest, 2};
+    simplex.p3 = simplex.p0;
+    simplex.count = 3;
+    out = CoreDistance{false, false, height, x, p, Vec3{0.0, 0.0, 0.0}, 0, detail::encodeSimplex(simplex), false};
+    return true;
 }
 
 // Separating-axis depth of overlapping cores along the unit normal n (A -> B): how far A's support along n

@@ -363,8 +363,9 @@ RAILCOSIM_HOST_DEVICE inline SimplexVertex decodeSimplexVertex(std::uint64_t cod
 // warmSimplex: the `simplex` of an earlier query of the same two cores (0: none). Any support vertex pairs
 // are points of A − B, so GJK may start from them; for a persistent contact the closest features rarely
 // change between steps, and the first iteration then only confirms them.
-// iterationLimit: stop after that many iterations with `unfinished` set and the reduced simplex in `simplex`;
-// a second call warm-started from it resumes the search (the GPU defers the few long searches this way).
+// iterationLimit: how many support points GJK may add before it stops with `unfinished` set and its current
+// simplex in `simplex`; a second call warm-started from that simplex resumes the search exactly where it
+// stopped (the GPU defers the few long searches this way). 0: only test the starting simplex.
 RAILCOSIM_HOST_DEVICE inline CoreDistance coreDistance(const ConvexCore& A, const ConvexCore& B, const Vec3& initialDirection,
                                                        double cutoff = 1e300, std::uint64_t warmSimplex = 0, int iterationLimit = 64) {
     // Relative tolerance on the squared distance (double precision: ~1e-12 of the distance itself is
@@ -395,15 +396,6 @@ RAILCOSIM_HOST_DEVICE inline CoreDistance coreDistance(const ConvexCore& A, cons
     CoreDistance result{false, false, 0.0, Vec3{0.0, 0.0, 0.0}, Vec3{0.0, 0.0, 0.0}, Vec3{0.0, 0.0, 0.0}, 0, 0, false};
     int iteration = 0;
     for (; iteration < maxIterations; ++iteration) {
-        if (iteration >= iterationLimit) {
-            const std::uint64_t code = detail::encodeSimplex(s);
-            if (code != 0) {  // resumable (a core of more than 1024 vertices is not: it simply goes on)
-                result.unfinished = true;
-                result.iterations = iteration;
-                result.simplex = code;
-                return result;
-            }
-        }
         const double vv = kernels::dot(v, v);
         if (vv < 1e-30) {  // the origin is (numerically) in A − B
             result.intersecting = true;
@@ -430,6 +422,13 @@ RAILCOSIM_HOST_DEVICE inline CoreDistance coreDistance(const ConvexCore& A, cons
         if (s.count > 1) duplicate = duplicate || detail::sameSupport(s.p1, a, b);
         if (s.count > 2) duplicate = duplicate || detail::sameSupport(s.p2, a, b);
         if (duplicate) break;
+        if (iteration >= iterationLimit) {
+            // A core of more than 1024 vertices cannot be encoded (0): the resumed run then starts afresh.
+            result.unfinished = true;
+            result.iterations = iteration;
+            result.simplex = detail::encodeSimplex(s);
+            return result;
+        }
         const detail::SimplexVertex added{a, b};
         if (s.count == 1) {
             s.p1 = added;

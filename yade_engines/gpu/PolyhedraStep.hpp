@@ -510,13 +510,17 @@ RAILCOSIM_HOST_DEVICE inline bool pairProvenApart(const SystemView& s, int i, lo
     return apart;
 }
 
-// GJK iterations a pair's narrow phase may take before it is deferred. Warm-started from the last simplex,
-// 91 % of the runs in a packed bed end at the first support test (measured on the benchmark bed: mean 0.29
-// further iterations, but 6 % need 3 and a few up to 11), and a GPU warp waits for its slowest lane: with
-// every run done at once, a warp took ~3.6 iterations where its average lane needed 0.3. Runs still going
-// after this limit resume from their saved simplex in a second pass (on the GPU a second kernel over just
-// those), so the long searches share warps with each other. The CPU reference runs the same two calls.
-constexpr int pairFirstPassIterations = 1;
+// Support points a pair's GJK may add in the first pass before it is deferred. Warm-started from the last
+// simplex, 97 % of the pair runs in the packed benchmark bed end at the first support test (the rest need
+// 1–11 more iterations), and a GPU warp waits for its slowest lane. With 0 the first pass is only that
+// test: its code holds no simplex growth (fewer registers), and the runs that must go on resume from the
+// unchanged starting simplex in a second pass (on the GPU a second kernel over just those), so the long
+// searches share warps with each other. The resumed run repeats the test and continues exactly as one
+// undivided run would; the CPU reference makes the same two calls.
+#ifndef RAILCOSIM_POLYHEDRA_PAIR_FIRST_PASS_ITERATIONS
+#define RAILCOSIM_POLYHEDRA_PAIR_FIRST_PASS_ITERATIONS 0
+#endif
+constexpr int pairFirstPassIterations = RAILCOSIM_POLYHEDRA_PAIR_FIRST_PASS_ITERATIONS;
 
 enum class PairOutcome { apart, touching, deferred };
 

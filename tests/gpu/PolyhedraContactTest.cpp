@@ -377,6 +377,55 @@ BOOST_AUTO_TEST_CASE(surface_reports_triangle_forces_and_carries_stone) {
 
 // A pile of 27 angular stones dropped into a box settles: kinetic energy decays to rest, no stone falls
 // through the floor, no core–core overlap (the dilated contact model stays valid).
+// A GJK run stopped by its iteration limit and resumed from the simplex it returned must end exactly where
+// one undivided run ends (the GPU's first narrow-phase pass stops at the limit 0, and a second pass resumes
+// the few unfinished runs): same distance, points, simplex and iteration count, bit for bit, over random
+// stone pairs from touching to well apart, with and without a warm start, for limits 0, 1 and 3.
+BOOST_AUTO_TEST_CASE(gjk_resumed_after_iteration_limit_equals_undivided_run) {
+    const ShapeTemplate a = dodecahedronStone(0.03, 0.025, 0.02, 0.003, 2600);
+    const ShapeTemplate b = dodecahedronStone(0.024, 0.027, 0.026, 0.003, 2600);
+    unsigned seed = 777u;
+    auto uniform = [&seed](double lo, double hi) {
+        seed = seed * 1664525u + 1013904223u;
+        return lo + (hi - lo) * (seed >> 8) / 16777216.0;
+    };
+    int resumed = 0;
+    for (int k = 0; k < 300; ++k) {
+        const ConvexCore coreA = place(a, Vec3{uniform(-1, 1), uniform(-1, 1), uniform(-1, 1)},
+                                       normalized(Quat{uniform(-1, 1), uniform(-1, 1), uniform(-1, 1), uniform(-1, 1)}));
+        const Vec3 direction = Vec3{uniform(-1, 1), uniform(-1, 1), uniform(-1, 1)};
+        const Vec3 offset = (uniform(0.035, 0.07) / railcosim::kernels::norm(direction)) * direction;
+        const ConvexCore coreB = place(b, coreA.position + offset, normalized(Quat{uniform(-1, 1), uniform(-1, 1), uniform(-1, 1), uniform(-1, 1)}));
+        // A warm simplex from a nearby earlier pose half of the time (as a persistent candidate has).
+        std::uint64_t warm = 0;
+        if (k % 2 == 1) {
+            const ConvexCore earlier = place(b, coreB.position + Vec3{0.002, -0.001, 0.0015}, normalized(Quat{1.0, 0.05, -0.03, 0.02}));
+            warm = coreDistance(coreA, earlier, offset, 0.006).simplex;
+        }
+        const CoreDistance whole = coreDistance(coreA, coreB, offset, 0.006, warm);
+        for (const int limit : {0, 1, 3}) {
+            CoreDistance part = coreDistance(coreA, coreB, offset, 0.006, warm, limit);
+            int iterations = 0;
+            if (part.unfinished) {
+                ++resumed;
+                iterations = part.iterations;
+                BOOST_TEST(part.simplex != 0u);
+                part = coreDistance(coreA, coreB, offset, 0.006, part.simplex);
+            }
+            BOOST_TEST(!part.unfinished);
+            BOOST_TEST(part.intersecting == whole.intersecting);
+            BOOST_TEST(part.beyondCutoff == whole.beyondCutoff);
+            BOOST_TEST(part.distance == whole.distance);  // exact: the same arithmetic in the same order
+            BOOST_TEST(part.pointA.x == whole.pointA.x);
+            BOOST_TEST(part.pointB.z == whole.pointB.z);
+            BOOST_TEST(part.simplex == whole.simplex);
+            BOOST_TEST(iterations + part.iterations == whole.iterations);
+        }
+    }
+    BOOST_TEST_MESSAGE("GJK runs resumed after the limit: " << resumed);
+    BOOST_TEST(resumed > 100);  // the limits actually interrupt runs
+}
+
 // The wall narrow phase's plane shortcut (coreOverTriangleInterior) against an exhaustive oracle: random
 // stones over a large floor triangle (20 m sides, the benchmark's scale) and a small tilted one. Where it
 // applies, distance and closest points must equal the oracle's (every stone vertex against the triangle,

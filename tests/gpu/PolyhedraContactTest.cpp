@@ -300,11 +300,12 @@ void addFloor(PolyhedraSystem& system, double half) {
 }
 
 // A stone on the floor and a second stone on top, pushed sideways; returns the final positions.
-std::vector<double> pushedStack(int rebuildInterval, double& tangentialForce) {
+std::vector<double> pushedStack(int rebuildInterval, bool adaptive, double& tangentialForce, std::int64_t& rebuilds) {
     Parameters p = quietParameters(0.3, 0.5);
     p.gravity = {0, 0, -9.81};
     p.timeStep = 5e-6;
     p.rebuildInterval = rebuildInterval;
+    p.adaptiveRebuild = adaptive;
     p.neighbourSkin = 0.005;  // never outgrown in either run, so both see the same candidate set
     PolyhedraSystem system(p);
     const int cube = system.addShape(cubeTemplate(0.01, 0.001, 2600));
@@ -314,6 +315,7 @@ std::vector<double> pushedStack(int rebuildInterval, double& tangentialForce) {
     system.addStone(cube, {0, 0, 0.0109}, {1, 0, 0, 0}, {0.002, 0, 0});
     system.addStone(cube, {0.003, 0, 0.0109 + 0.0218}, {1, 0, 0, 0}, {-0.003, 0.001, 0});
     system.step(3000);
+    rebuilds = system.lastStatistics().neighbourRebuilds;
     tangentialForce = 0.0;
     for (const ContactRecord& c : system.contacts()) {
         const Vec3 f{c.force[0], c.force[1], c.force[2]}, n{c.normal[0], c.normal[1], c.normal[2]};
@@ -329,11 +331,45 @@ std::vector<double> pushedStack(int rebuildInterval, double& tangentialForce) {
 // order-independent arithmetic; 1e-12 m allowed). A dropped history would reset the springs each step.
 BOOST_AUTO_TEST_CASE(tangential_history_survives_list_rebuild) {
     double forceEveryStep = 0.0, forceNever = 0.0;
-    const std::vector<double> everyStep = pushedStack(1, forceEveryStep);
-    const std::vector<double> never = pushedStack(100000, forceNever);
+    std::int64_t rebuildsEveryStep = 0, rebuildsNever = 0;
+    const std::vector<double> everyStep = pushedStack(1, false, forceEveryStep, rebuildsEveryStep);
+    const std::vector<double> never = pushedStack(100000, false, forceNever, rebuildsNever);
+    BOOST_TEST(rebuildsEveryStep == 3001);  // + the rebuild for the initial forces
+    BOOST_TEST(rebuildsNever == 2);
     BOOST_TEST(forceNever > 1e-4);  // the springs do carry load (N), so the comparison means something
     for (std::size_t k = 0; k < everyStep.size(); ++k) BOOST_TEST(std::fabs(everyStep[k] - never[k]) < 1e-12);
     BOOST_TEST(std::fabs(forceEveryStep - forceNever) < 1e-9 * forceNever);
+}
+
+// Adaptive rebuilds: the quiet stack (speeds of mm/s, 3000 steps of 5 µs move a cube ~10 µm against a 5 mm
+// skin) never needs new lists, so only the rebuilds for the initial forces and at the start of the call
+// happen, and the trajectory equals the never-rebuilt one (1e-12 m as above). A stone thrown at 2 m/s
+// through the same skin with the same interval must get a new list before its displacement plus twice the
+// travel of the next interval and one step (2 × 2 m/s × 11 × 5 µs = 0.22 mm) reaches skin/2 = 2.5 mm.
+BOOST_AUTO_TEST_CASE(adaptive_rebuild_skips_only_what_the_lists_do_not_need) {
+    double forceAdaptive = 0.0, forceNever = 0.0;
+    std::int64_t rebuildsAdaptive = 0, rebuildsNever = 0;
+    const std::vector<double> adaptive = pushedStack(10, true, forceAdaptive, rebuildsAdaptive);
+    const std::vector<double> never = pushedStack(100000, false, forceNever, rebuildsNever);
+    BOOST_TEST(rebuildsAdaptive == 2);  // initial forces and the start of the call
+    for (std::size_t k = 0; k < adaptive.size(); ++k) BOOST_TEST(std::fabs(adaptive[k] - never[k]) < 1e-12);
+
+    Parameters p = quietParameters(0.3, 0.5);
+    p.gravity = {0, 0, 0};
+    p.timeStep = 5e-6;
+    p.neighbourSkin = 0.005;
+    PolyhedraSystem system(p);
+    const int cube = system.addShape(cubeTemplate(0.01, 0.001, 2600));
+    system.addStone(cube, {0, 0, 0}, {1, 0, 0, 0}, {2.0, 0, 0});
+    system.addStone(cube, {0.2, 0, 0}, {1, 0, 0, 0}, {0, 0, 0});
+    system.step(3000);
+    const std::int64_t rebuilds = system.lastStatistics().neighbourRebuilds;
+    BOOST_TEST_MESSAGE("adaptive rebuilds: quiet stack " << rebuildsAdaptive << ", moving stone " << rebuilds);
+    // A list lasts while moved + 0.22 mm ≤ 2.5 mm, i.e. 23 intervals of 0.1 mm: 300 intervals need
+    // 300 / 23 ≈ 13 rebuilds, plus the two at the start.
+    BOOST_TEST(rebuilds >= 14);
+    BOOST_TEST(rebuilds <= 16);
+    BOOST_TEST(system.lastStatistics().dangerousRebuilds == 0);
 }
 
 // A moving floor: the triangles report the stone's weight and the contact point under it; a floor that

@@ -37,12 +37,21 @@ struct HostData {
     double skin = 0.0;
     double featureTolerance = 0.0;
     int rebuildInterval = 10;
+    bool adaptiveRebuild = true;  // skip a due rebuild while no stone can outgrow the lists (Parameters)
     ContactLawConstants stoneLaw{}, wallLaw{};
-    unsigned long long counters[counterCount] = {0, 0, 0, 0, 0};
+    unsigned long long counters[counterCount] = {};
     bool forcesValid = false;  // force/torque hold the contact forces of the current state
 
     int nodeCount() const { return static_cast<int>(nodePosition.size() / 3); }
     int triangleCount() const { return static_cast<int>(triangles.size() / 3); }
+    // Rebuilds within a step call may be skipped: adaptive rebuilds asked for and the surface at rest (moving
+    // nodes would need their own displacement bookkeeping, so a moving surface keeps every rebuild).
+    bool rebuildsMayBeSkipped() const {
+        if (!adaptiveRebuild) return false;
+        for (const double v : nodeVelocity)
+            if (v != 0.0) return false;
+        return true;
+    }
     // Sizes every per-stone and per-triangle array after stones/shapes/walls are known.
     void allocate();
     // View on the current lists (pairSlots) with `previous*` as the lists of the last rebuild.
@@ -51,7 +60,7 @@ struct HostData {
 
 // What a step call reports back to the facade.
 struct BackendCounters {
-    unsigned long long values[counterCount] = {0, 0, 0, 0, 0};
+    unsigned long long values[counterCount] = {};
     long long rebuilds = 0;
 };
 

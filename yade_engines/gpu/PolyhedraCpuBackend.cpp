@@ -113,12 +113,18 @@ public:
             d.counters[counterActive] = 0;
             ++result.rebuilds;
         }
+        // Every call starts with a rebuild; later rebuilds, every rebuildInterval steps, are skipped while the
+        // stale test at the end of the previous interval found no stone that could outgrow the lists.
+        const bool mayskip = d.rebuildsMayBeSkipped();
+        // The predict of the step that rebuilds moves the stones once more before the new lists: + 1 step.
+        const double horizon = (d.rebuildInterval + 1) * d.timeStep;
+        bool stale = true;
         for (int s = 0; s < steps; ++s) {
             SystemView v = d.view();
 #pragma omp parallel for schedule(static) if (n >= parallelThreshold)
             for (int i = 0; i < n; ++i) predictStone(v, i);
             for (int k = 0; k < v.nodeCount; ++k) moveNode(v, k);
-            if (s % d.rebuildInterval == 0) {
+            if (s % d.rebuildInterval == 0 && (s == 0 || !mayskip || stale)) {
                 rebuild(d);
                 ++result.rebuilds;
                 v = d.view();
@@ -127,6 +133,16 @@ public:
             for (int i = 0; i < n; ++i) stoneForces(v, i);
 #pragma omp parallel for schedule(static) if (n >= parallelThreshold)
             for (int i = 0; i < n; ++i) correctStone(v, i);
+            if ((s + 1) % d.rebuildInterval == 0) {
+                double maxMoved = 0.0, maxSpeed = 0.0;
+                for (int i = 0; i < n; ++i) {
+                    double moved, speed;
+                    stoneMotion(v, i, moved, speed);
+                    maxMoved = std::max(maxMoved, moved);
+                    maxSpeed = std::max(maxSpeed, speed);
+                }
+                stale = listsStale(maxMoved, maxSpeed, horizon, d.skin);
+            }
         }
         for (int k = 0; k < counterCount; ++k) result.values[k] = d.counters[k];
     }

@@ -5,6 +5,7 @@
 #include <cub/device/device_radix_sort.cuh>
 #include <cuda_runtime.h>
 
+#include <cstring>
 #include <string>
 #include <vector>
 
@@ -222,6 +223,22 @@ __global__ void __launch_bounds__(blockSize) correctKernel(SystemView s) {
 }
 static_assert(sizeof(kernels::RotationState) % sizeof(double) == 0, "rotation states are staged as doubles");
 
+// End of a rebuild interval: the largest displacement since the last rebuild and the largest speed
+// (counterMaxDisplacement, counterMaxSpeed, as double bits), for the host's stale test. One atomic per warp.
+__global__ void __launch_bounds__(blockSize) motionKernel(SystemView s) {
+    const int i = blockIdx.x * blockDim.x + threadIdx.x;
+    double moved = 0.0, speed = 0.0;
+    if (i < s.stoneCount) stoneMotion(s, i, moved, speed);
+    for (int offset = 16; offset > 0; offset /= 2) {
+        moved = fmax(moved, __shfl_xor_sync(0xffffffffu, moved, offset));
+        speed = fmax(speed, __shfl_xor_sync(0xffffffffu, speed, offset));
+    }
+    if ((threadIdx.x & 31u) == 0) {
+        atomicMax(&s.counters[counterMaxDisplacement], static_cast<unsigned long long>(__double_as_longlong(moved)));
+        atomicMax(&s.counters[counterMaxSpeed], static_cast<unsigned long long>(__double_as_longlong(speed)));
+    }
+}
+
 __global__ void __launch_bounds__(blockSize) cellKeyKernel(SystemView s) {
     const int i = blockIdx.x * blockDim.x + threadIdx.x;
     if (i < s.stoneCount) computeCellKey(s, i);
@@ -250,8 +267,7 @@ class CudaBackend final : public PolyhedraBackend {
 public:
     CudaBackend() { check(cudaStreamCreateWithFlags(&stream_, cudaStreamNonBlocking), "cudaStreamCreate"); }
     ~CudaBackend() override {
-        for (auto& g : graphs_)
-            if (g) cudaGraphExecDestroy(g);
+        invalidateGraphs();
         if (stream_) cudaStreamDestroy(stream_);
     }
 
@@ -362,27 +378,36 @@ public:
             ++result.rebuilds;
         }
         const int interval = d.rebuildInterval;
+        // Every call starts with a rebuild; a later one is skipped when the stale test at the end of the
+        // previous interval (read back here: one small copy and wait per interval) found no stone that could
+        // outgrow the lists (the CPU reference decides the same way).
+        const bool mayskip = d.rebuildsMayBeSkipped();
+        bool rebuild = true;
         int done = 0;
         while (steps - done >= interval) {
-            // A chunk starts with the rebuild that turns buffer `current_` into `1 − current_`: one graph per parity.
+            // A chunk with a rebuild turns buffer `current_` into `1 − current_`: graphs per parity and kind.
             const int parity = current_;
-            if (!graphs_[parity]) {
+            cudaGraphExec_t& exec = graphs_[parity][rebuild ? 1 : 0];
+            if (!exec) {
                 cudaGraph_t graph;
                 check(cudaStreamBeginCapture(stream_, cudaStreamCaptureModeThreadLocal), "graph capture");
-                enqueueChunk(d, interval);
+                enqueueChunk(d, interval, rebuild);
                 check(cudaStreamEndCapture(stream_, &graph), "graph capture");
-                check(cudaGraphInstantiate(&graphs_[parity], graph, 0), "graph instantiate");
+                check(cudaGraphInstantiate(&exec, graph, 0), "graph instantiate");
                 cudaGraphDestroy(graph);
                 current_ = parity;  // capture only recorded the chunk; replay below performs it
             }
-            check(cudaGraphLaunch(graphs_[parity], stream_), "graph launch");
-            current_ = 1 - parity;
+            check(cudaGraphLaunch(exec, stream_), "graph launch");
+            if (rebuild) {
+                current_ = 1 - parity;
+                result.rebuilds += 1;
+            }
             done += interval;
-            result.rebuilds += 1;
+            rebuild = !mayskip || listsOutgrown(d);
         }
         if (done < steps) {
-            enqueueChunk(d, steps - done);
-            result.rebuilds += 1;
+            enqueueChunk(d, steps - done, rebuild);
+            if (rebuild) result.rebuilds += 1;
         }
         std::vector<unsigned long long> counters(counterCount);
         check(cudaMemcpyAsync(counters.data(), counters_.get(), counterCount * sizeof(unsigned long long), cudaMemcpyDeviceToHost, stream_),
@@ -495,9 +520,20 @@ private:
         }
     }
 
-    // `count` steps, the first with a neighbour rebuild (as the CPU reference: step index % interval == 0).
-    // Each step's correct runs fused with the next step's predict; the chunk ends corrected.
-    void enqueueChunk(HostData& d, int count) {
+    // The stale test on the motion recorded at the end of the last chunk (waits for that chunk).
+    bool listsOutgrown(const HostData& d) {
+        unsigned long long bits[2] = {0, 0};
+        check(cudaMemcpyAsync(bits, counters_.get() + counterMaxDisplacement, sizeof(bits), cudaMemcpyDeviceToHost, stream_), "motion");
+        check(cudaStreamSynchronize(stream_), "motion");
+        double motion[2];
+        std::memcpy(motion, bits, sizeof(motion));
+        return listsStale(motion[0], motion[1], (d.rebuildInterval + 1) * d.timeStep, d.skin);
+    }
+
+    // `count` steps, the first with a neighbour rebuild if `rebuild` (as the CPU reference: at step index
+    // % interval == 0). Each step's correct runs fused with the next step's predict; the chunk ends
+    // corrected, with the stale test for the next chunk.
+    void enqueueChunk(HostData& d, int count, bool rebuild) {
         for (int s = 0; s < count; ++s) {
             SystemView v = view(d);
             if (s == 0) {
@@ -506,23 +542,31 @@ private:
                 nextStepKernel<<<blocks(d.stoneCount + v.nodeCount), blockSize, 0, stream_>>>(v);
             }
             check(cudaGetLastError(), "predict kernel");
-            if (s == 0) enqueueRebuild(d);
+            if (s == 0 && rebuild) enqueueRebuild(d);
             v = view(d);
             enqueueForces(d, v);
         }
-        correctKernel<<<blocks(d.stoneCount), blockSize, 0, stream_>>>(view(d));
+        const SystemView v = view(d);
+        correctKernel<<<blocks(d.stoneCount), blockSize, 0, stream_>>>(v);
         check(cudaGetLastError(), "correct kernel");
+        if (count == d.rebuildInterval) {
+            check(cudaMemsetAsync(counters_.get() + counterMaxDisplacement, 0, 2 * sizeof(unsigned long long), stream_), "memset");
+            motionKernel<<<blocks(d.stoneCount), blockSize, 0, stream_>>>(v);
+            check(cudaGetLastError(), "motion kernel");
+        }
     }
 
     void invalidateGraphs() {
-        for (auto& g : graphs_) {
-            if (g) cudaGraphExecDestroy(g);
-            g = nullptr;
+        for (auto& byKind : graphs_) {
+            for (auto& g : byKind) {
+                if (g) cudaGraphExecDestroy(g);
+                g = nullptr;
+            }
         }
     }
 
     cudaStream_t stream_ = nullptr;
-    cudaGraphExec_t graphs_[2] = {nullptr, nullptr};
+    cudaGraphExec_t graphs_[2][2] = {{nullptr, nullptr}, {nullptr, nullptr}};  // [parity][with rebuild]
     int current_ = 0;
     DeviceArray<kernels::RotationState> rotation_;
     DeviceArray<double> position_, velocity_, force_, torque_,

@@ -62,7 +62,9 @@ enum Counter : int {
     counterCoreOverlap = 2,
     counterDangerous = 3,      // a stone moved farther than skin/2 since the last rebuild
     counterActive = 4,
-    counterCount = 5
+    counterMaxDisplacement = 5,// end of a rebuild interval: largest displacement since the last rebuild (double bits)
+    counterMaxSpeed = 6,       // end of a rebuild interval: largest stone speed (double bits)
+    counterCount = 7
 };
 
 struct ContactLawConstants {
@@ -210,6 +212,21 @@ RAILCOSIM_HOST_DEVICE inline void correctStone(const SystemView& s, int i, kerne
 
 RAILCOSIM_HOST_DEVICE inline void predictStone(const SystemView& s, int i) { predictStone(s, i, s.rotation[i]); }
 RAILCOSIM_HOST_DEVICE inline void correctStone(const SystemView& s, int i) { correctStone(s, i, s.rotation[i]); }
+
+// Displacement of stone i since the last rebuild and its speed, for the stale test below.
+RAILCOSIM_HOST_DEVICE inline void stoneMotion(const SystemView& s, int i, double& moved, double& speed) {
+    moved = kernels::norm(load3(s.position, i) - load3(s.referencePosition, i));
+    speed = kernels::norm(load3(s.velocity, i));
+}
+
+// Whether the lists may be outgrown before the next chance to rebuild them, `horizon` seconds away: the
+// largest displacement since the last rebuild plus twice the way the fastest stone covers in the horizon
+// (a stone at rest can be struck up to about that speed) exceeds half the skin (two stones approaching
+// each other share the skin). Non-negative doubles order like their bit patterns, so the device keeps the
+// maxima in integer counters.
+inline bool listsStale(double maxDisplacement, double maxSpeed, double horizon, double skin) {
+    return maxDisplacement + 2.0 * horizon * maxSpeed > 0.5 * skin;
+}
 
 // Surface nodes move with their prescribed velocity during a coupling window.
 RAILCOSIM_HOST_DEVICE inline void moveNode(const SystemView& s, int k) {

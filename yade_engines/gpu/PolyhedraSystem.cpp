@@ -139,6 +139,7 @@ PolyhedraSystem::PolyhedraSystem(const Parameters& p) : implementation_(std::mak
     d.gravity = Vec3{p.gravity[0], p.gravity[1], p.gravity[2]};
     d.featureTolerance = p.featureTolerance;
     d.rebuildInterval = p.rebuildInterval;
+    d.adaptiveRebuild = p.adaptiveRebuild;
     d.maxPairs = p.maxNeighbours;
     d.maxWalls = p.maxWallNeighbours;
     d.stoneLaw = lawOf(p.stone, p.stone, "stone-stone");

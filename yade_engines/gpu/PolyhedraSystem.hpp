@@ -47,7 +47,11 @@ struct Parameters {
     Material stone;                                ///< stone–stone contacts
     Material wall;                                 ///< stone–wall/surface contacts (friction, restitution of the pair)
     double neighbourSkin = -1.0;                   ///< Verlet skin [m]; < 0: 0.2 × mean dilation radius
-    int rebuildInterval = 10;                      ///< steps between neighbour-list rebuilds [-]
+    /// Steps between neighbour-list rebuilds [-]. Every `step` call starts with one; with adaptiveRebuild a
+    /// later one is skipped while no stone's displacement since the last rebuild plus its speed × this
+    /// interval reaches half the skin (a settled bed then keeps its lists; a moving surface never skips).
+    int rebuildInterval = 10;
+    bool adaptiveRebuild = true;                   ///< skip rebuilds the lists do not need (see rebuildInterval)
     int maxNeighbours = 24;                        ///< candidate partners stored per stone (j > i) [-]
     int maxWallNeighbours = 8;                     ///< candidate triangles stored per stone [-]
     /// Patch centring, fraction of r_d [-]. 0 (default): the force acts at the closest points of the cores

@@ -64,6 +64,7 @@ void PolyhedraGpuEngine::initialize()
 	parameters.stone           = { material->young, material->poisson, restitution, std::tan(material->frictionAngle) };
 	parameters.wall            = parameters.stone;
 	parameters.rebuildInterval = rebuildInterval;
+	parameters.adaptiveRebuild = adaptiveRebuild;
 	parameters.backend         = parseBackend(backend);
 	system                     = std::make_shared<poly::PolyhedraSystem>(parameters);
 

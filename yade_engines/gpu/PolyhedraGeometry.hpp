@@ -364,8 +364,9 @@ RAILCOSIM_HOST_DEVICE inline SimplexVertex decodeSimplexVertex(std::uint64_t cod
 // are points of A − B, so GJK may start from them; for a persistent contact the closest features rarely
 // change between steps, and the first iteration then only confirms them.
 // iterationLimit: how many support points GJK may add before it stops with `unfinished` set and its current
-// simplex in `simplex`; a second call warm-started from that simplex resumes the search exactly where it
-// stopped (the GPU defers the few long searches this way). 0: only test the starting simplex.
+// simplex in `simplex`; a second call warm-started from that simplex resumes the search (the GPU defers
+// the few long searches this way). 0: only test the starting simplex; the resumed run is then exactly the
+// undivided one. After a larger limit it agrees to roundoff (the direction is recomputed from the simplex).
 RAILCOSIM_HOST_DEVICE inline CoreDistance coreDistance(const ConvexCore& A, const ConvexCore& B, const Vec3& initialDirection,
                                                        double cutoff = 1e300, std::uint64_t warmSimplex = 0, int iterationLimit = 64) {
     // Relative tolerance on the squared distance (double precision: ~1e-12 of the distance itself is
@@ -426,7 +427,9 @@ RAILCOSIM_HOST_DEVICE inline CoreDistance coreDistance(const ConvexCore& A, cons
             // A core of more than 1024 vertices cannot be encoded (0): the resumed run then starts afresh.
             result.unfinished = true;
             result.iterations = iteration;
-            result.simplex = detail::encodeSimplex(s);
+            // Stopped before adding anything: hand back the caller's own start (the reduced copy would make
+            // the resumed run recompute its direction by another formula, different in the last bits).
+            result.simplex = iteration == 0 && warmCount > 0 ? warmSimplex : detail::encodeSimplex(s);
             return result;
         }
         const detail::SimplexVertex added{a, b};

@@ -455,7 +455,7 @@ BOOST_AUTO_TEST_CASE(gjk_resumed_after_iteration_limit_equals_undivided_run) {
             }
             BOOST_TEST(!part.unfinished);
             BOOST_TEST(part.intersecting == whole.intersecting);
-            if (!std::isfinite(whole.distance)) continue;  // degenerate-support NaN of GJK itself (noted defect)
+            BOOST_TEST(std::isfinite(whole.distance));  // coincident support points of the aligned cubes once gave NaN
             if (limit == 0) {
                 BOOST_TEST(part.beyondCutoff == whole.beyondCutoff);
                 BOOST_TEST(part.distance == whole.distance);  // exact: the same arithmetic in the same order
@@ -470,6 +470,110 @@ BOOST_AUTO_TEST_CASE(gjk_resumed_after_iteration_limit_equals_undivided_run) {
     }
     BOOST_TEST_MESSAGE("GJK runs resumed after the limit: " << resumed);
     BOOST_TEST(resumed > 100);  // the limits actually interrupt runs
+}
+
+// GJK's triangle step over every triple of support pairs of two aligned identical cubes, whose Minkowski
+// difference has many coincident points (a_i − b_j = a_k − b_l): zero-length edges once gave 0/0 = NaN.
+// Oracle: the result must be finite, a convex combination of the triangle's points (weights ≥ 0 summing to 1,
+// reproducing the point to 1e-15 m: roundoff at coordinates of 0.1 m), and no farther from the origin than
+// the nearest point of any of the three edges (closed-form point–segment distance with clamping, exact for
+// coincident ends), to the same roundoff.
+BOOST_AUTO_TEST_CASE(gjk_triangle_step_handles_coincident_support_points) {
+    using namespace railcosim::polyhedra::detail;
+    const ShapeTemplate cube = cubeTemplate(0.02, 0.003, 2600);
+    const ConvexCore a = place(cube, Vec3{0.01, -0.02, 0.05}, Quat{1, 0, 0, 0});
+    const ConvexCore b = place(cube, Vec3{0.01, -0.02, 0.05 + 0.041}, Quat{1, 0, 0, 0});
+    const Pair pair{a, b};
+    auto segmentToOrigin = [](const Vec3& p, const Vec3& q) {
+        const Vec3 d = q - p;
+        const double length2 = railcosim::kernels::dot(d, d);
+        const double t = length2 > 0.0 ? std::clamp(-railcosim::kernels::dot(p, d) / length2, 0.0, 1.0) : 0.0;
+        return railcosim::kernels::norm(p + t * d);
+    };
+    int coincident = 0, checked = 0;
+    std::vector<SimplexVertex> supports;
+    for (int i = 0; i < 8; ++i)
+        for (int j = 0; j < 8; ++j) supports.push_back(SimplexVertex{i, j});
+    for (const SimplexVertex& P : supports)
+        for (const SimplexVertex& Q : supports)
+            for (const SimplexVertex& R : supports) {
+                if (sameSupport(P, Q.a, Q.b) || sameSupport(P, R.a, R.b) || sameSupport(Q, R.a, R.b)) continue;
+                const Vec3 p = point(pair, P), q = point(pair, Q), r = point(pair, R);
+                if (railcosim::kernels::squaredNorm(p - q) == 0.0 || railcosim::kernels::squaredNorm(p - r) == 0.0 ||
+                    railcosim::kernels::squaredNorm(q - r) == 0.0)
+                    ++coincident;
+                Simplex out;
+                Weights w;
+                Vec3 closest;
+                closestOnTriangle(pair, P, Q, R, out, w, closest);
+                ++checked;
+                const double distance = railcosim::kernels::norm(closest);
+                const double edges = std::min({segmentToOrigin(p, q), segmentToOrigin(p, r), segmentToOrigin(q, r)});
+                const bool finite = std::isfinite(distance) && std::isfinite(w.w0) && std::isfinite(w.w1) && std::isfinite(w.w2);
+                BOOST_TEST_REQUIRE(finite);
+                const SimplexVertex kept[3] = {out.p0, out.p1, out.p2};
+                const double weights[3] = {w.w0, w.w1, w.w2};
+                Vec3 combination{0, 0, 0};
+                double sum = 0.0;
+                for (int k = 0; k < out.count; ++k) {
+                    BOOST_TEST(weights[k] >= -1e-12);
+                    BOOST_TEST((sameSupport(kept[k], P.a, P.b) || sameSupport(kept[k], Q.a, Q.b) || sameSupport(kept[k], R.a, R.b)));
+                    combination += weights[k] * point(pair, kept[k]);
+                    sum += weights[k];
+                }
+                BOOST_TEST(std::fabs(sum - 1.0) < 1e-12);
+                BOOST_TEST(railcosim::kernels::norm(combination - closest) < 1e-15);
+                BOOST_TEST(distance <= edges + 1e-15);
+            }
+    BOOST_TEST_MESSAGE("triangles checked: " << checked << ", with coincident points: " << coincident);
+    BOOST_TEST(coincident > 1000);  // the degenerate case is really exercised
+}
+
+// A touching wall contact decided by GJK (a tilted cube whose lowest vertex hangs 1 mm beside a floor
+// triangle's edge and 1 mm above its plane: vertex against edge, 1.41 mm < r_d = 3 mm) must keep the final
+// simplex in its slot, so that the next step's GJK starts from the same features and converges at once
+// (0 iterations); the narrow phase once kept the simplex only for contacts that had come apart.
+BOOST_AUTO_TEST_CASE(wall_narrow_phase_keeps_warm_simplex_of_touching_contact) {
+    const double h = 0.02, r = 0.003, tilt = 0.05;
+    ShapeTemplate cube = cubeTemplate(h, r, 2600);
+    const Quat q = axisAngle(Vec3{0, 1, 0}, tilt);
+    // The lowest vertices (+h, ±h, −h) after the turn about y, placed at x = −1 mm (beside the edge x = 0), z = +1 mm.
+    const Vec3 lowest = rotate(q, Vec3{h, h, -h});
+    const Vec3 centre = Vec3{-0.001, 0.2, 0.001} - lowest;
+    std::vector<double> nodes = {0, 0, 0, 1, 0, 0, 0, 1, 0};
+    std::vector<std::int32_t> triangle = {0, 1, 2};
+    ShapeData shape{0, 8, r, 0.05, 1.0, {1.0, 1.0, 1.0}};
+    std::int32_t shapeIndex = 0;
+    double position[3] = {centre.x, centre.y, centre.z};
+    railcosim::kernels::RotationState rotation{};
+    rotation.orientation = q;
+    ContactSlot slot{0, 0, {0, 0, 0}, {0, 0, 0}, 0.0, 0};
+    ContactGeometry geometry{};
+    unsigned long long counters[counterCount] = {};
+    SystemView view{};
+    view.stoneCount = 1;
+    view.position = position;
+    view.rotation = &rotation;
+    view.shape = &shapeIndex;
+    view.shapes = &shape;
+    view.shapeVertices = cube.vertices.data();
+    view.nodePosition = nodes.data();
+    view.triangles = triangle.data();
+    view.maxWalls = 1;
+    view.wallSlots = &slot;
+    view.wallGeometry = &geometry;
+    view.counters = counters;
+    const ConvexCore core = stoneCore(view, 0);
+    CoreDistance shortcut;
+    BOOST_TEST(!coreOverTriangleInterior(core, triangleCore(view, 0), shortcut));  // GJK decides this one
+    wallNarrowPhase(view, 0, 0);
+    BOOST_TEST(geometry.touching);
+    BOOST_TEST(std::fabs(geometry.overlap - (r - std::sqrt(2.0) * 0.001)) < 1e-12);  // δ = r_d − |(−1, 1) mm|
+    BOOST_TEST(slot.simplex != 0u);
+    const CoreDistance warm = coreDistance(core, triangleCore(view, 0), Vec3{0, 0, -1}, r, slot.simplex);
+    BOOST_TEST(warm.iterations == 0);
+    BOOST_TEST(std::fabs(warm.distance - std::sqrt(2.0) * 0.001) < 1e-12);
+    BOOST_TEST(counters[counterCoreOverlap] == 0u);
 }
 
 // The wall narrow phase's plane shortcut (coreOverTriangleInterior) against an exhaustive oracle: random

@@ -183,7 +183,11 @@ RAILCOSIM_HOST_DEVICE inline void closestOnTriangle(const Pair& pair, const Simp
         return;
     }
     const double vc = d1 * d4 - d3 * d2;
-    if (vc <= 0.0 && d1 >= 0.0 && d3 <= 0.0) {
+    // Each edge region also asks for a positive denominator (d1 − d3 = |ab|², d2 − d6 = |ac|², (d4 − d3) +
+    // (d5 − d6) = |bc|²): distinct support pairs can give one point of A − B (aligned identical cubes), and
+    // 0/0 there made GJK return NaN. A zero-length edge falls through to the other regions, which then hold
+    // the answer (or to the degenerate case below).
+    if (vc <= 0.0 && d1 >= 0.0 && d3 <= 0.0 && d1 - d3 > 0.0) {
         const double t = d1 / (d1 - d3);
         out.p0 = P;
         out.p1 = Q;
@@ -201,7 +205,7 @@ RAILCOSIM_HOST_DEVICE inline void closestOnTriangle(const Pair& pair, const Simp
         return;
     }
     const double vb = d5 * d2 - d1 * d6;
-    if (vb <= 0.0 && d2 >= 0.0 && d6 <= 0.0) {
+    if (vb <= 0.0 && d2 >= 0.0 && d6 <= 0.0 && d2 - d6 > 0.0) {
         const double t = d2 / (d2 - d6);
         out.p0 = P;
         out.p1 = R;
@@ -211,7 +215,7 @@ RAILCOSIM_HOST_DEVICE inline void closestOnTriangle(const Pair& pair, const Simp
         return;
     }
     const double va = d3 * d6 - d5 * d4;
-    if (va <= 0.0 && (d4 - d3) >= 0.0 && (d5 - d6) >= 0.0) {
+    if (va <= 0.0 && (d4 - d3) >= 0.0 && (d5 - d6) >= 0.0 && (d4 - d3) + (d5 - d6) > 0.0) {
         const double t = (d4 - d3) / ((d4 - d3) + (d5 - d6));
         out.p0 = Q;
         out.p1 = R;
@@ -222,7 +226,7 @@ RAILCOSIM_HOST_DEVICE inline void closestOnTriangle(const Pair& pair, const Simp
     }
     const double sum = va + vb + vc;
     if (!(sum > 1e-24 * kernels::squaredNorm(kernels::cross(ab, ac)) + 1e-300)) {
-        // Collinear (degenerate) triangle: the barycentric solve is undefined; keep the closest edge.
+        // Collinear or zero-length-edge (degenerate) triangle: the barycentric solve is undefined; keep the closest edge.
         Simplex e1, e2, e3;
         Weights w1, w2, w3;
         Vec3 c1, c2, c3;
@@ -398,7 +402,7 @@ RAILCOSIM_HOST_DEVICE inline CoreDistance coreDistance(const ConvexCore& A, cons
     int iteration = 0;
     for (; iteration < maxIterations; ++iteration) {
         const double vv = kernels::dot(v, v);
-        if (vv < 1e-30) {  // the origin is (numerically) in A − B
+        if (!(vv >= 1e-30)) {  // the origin is (numerically) in A − B; a non-finite v ends the same way
             result.intersecting = true;
             break;
         }

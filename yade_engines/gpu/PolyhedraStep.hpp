@@ -656,7 +656,13 @@ RAILCOSIM_HOST_DEVICE inline void wallNarrowPhase(const SystemView& s, int i, lo
         d = coreDistance(coreA, triangle, guess, radius, slot.simplex);
     }
     const ContactGeometry g = geometryFromDistance(coreA, triangle, radius, 0.0, d, guess, s.featureTolerance, slot, s.counters);
-    if (!g.touching) s.wallSlots[index] = slot;  // released
+    // Apart: the released slot. Touching: only the new simplex (the law pass reads the slot and writes the
+    // rest), so that the next step's GJK starts from this step's features.
+    if (g.touching) {
+        s.wallSlots[index].simplex = slot.simplex;
+    } else {
+        s.wallSlots[index] = slot;
+    }
     s.wallGeometry[index] = g;
 }
 

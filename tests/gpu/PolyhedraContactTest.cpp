@@ -372,6 +372,44 @@ BOOST_AUTO_TEST_CASE(adaptive_rebuild_skips_only_what_the_lists_do_not_need) {
     BOOST_TEST(system.lastStatistics().dangerousRebuilds == 0);
 }
 
+// Stones are stored in spatial (Morton) order from the first step on; every accessor, setState and
+// contacts() must still speak the order of addStone. Four cubes added far corner first: two free ones
+// (user 0 and 3) must move by exactly v Δt (no force: velocity Verlet is exact, 1e-15 m roundoff), the
+// touching pair (users 1 and 2, 1 mm of overlap along x) must be the one contact, with equal and opposite
+// x forces on users 1 and 2 only; setState must round-trip the state.
+BOOST_AUTO_TEST_CASE(stone_indices_stay_the_users_after_spatial_ordering) {
+    PolyhedraSystem system(quietParameters(0.5, 0.5));
+    const int cube = system.addShape(cubeTemplate(0.01, 0.001, 2600));
+    const std::array<std::array<double, 3>, 4> x = {{{1.0, 1.0, 1.0}, {0.0, 0.0, 0.0}, {0.021, 0.0, 0.0}, {0.5, 0.0, 0.0}}};
+    const std::array<std::array<double, 3>, 4> v = {{{0.1, 0.0, 0.0}, {0.0, 0.0, 0.0}, {0.0, 0.0, 0.0}, {0.0, -0.2, 0.0}}};
+    for (int k = 0; k < 4; ++k) BOOST_TEST(system.addStone(cube, x[k], {1, 0, 0, 0}, v[k]) == k);
+    system.step(1);
+    const double dt = 4e-6;
+    const auto position = system.positions(), velocity = system.velocities(), force = system.forces();
+    for (const int k : {0, 3})
+        for (int c = 0; c < 3; ++c) {
+            BOOST_TEST(std::fabs(position[3 * k + c] - (x[k][c] + v[k][c] * dt)) < 1e-15);
+            BOOST_TEST(velocity[3 * k + c] == v[k][c]);
+            BOOST_TEST(force[3 * k + c] == 0.0);
+        }
+    BOOST_TEST(force[3] < 0.0);  // user 1, pushed towards −x by user 2
+    BOOST_TEST(force[6] > 0.0);
+    BOOST_TEST(std::fabs(force[3] + force[6]) < 1e-12 * force[6]);
+    const auto contacts = system.contacts();
+    BOOST_TEST_REQUIRE(contacts.size() == 1u);
+    BOOST_TEST(std::min(contacts[0].first, contacts[0].second) == 1);
+    BOOST_TEST(std::max(contacts[0].first, contacts[0].second) == 2);
+    // Force on `second`, normal from first to second: the one on user 2 points to +x.
+    const double onUser2 = contacts[0].second == 2 ? contacts[0].force[0] : -contacts[0].force[0];
+    BOOST_TEST(std::fabs(onUser2 - force[6]) < 1e-12 * force[6]);
+    // setState takes the user's order: moving user 0 only moves user 0.
+    std::vector<double> moved = position;
+    moved[0] += 0.25;
+    system.setState(moved, system.orientations(), velocity, system.angularVelocities());
+    const auto back = system.positions();
+    for (std::size_t k = 0; k < back.size(); ++k) BOOST_TEST(back[k] == moved[k]);
+}
+
 // A moving floor: the triangles report the stone's weight and the contact point under it; a floor that
 // rises at constant speed carries the resting stone with it.
 BOOST_AUTO_TEST_CASE(surface_reports_triangle_forces_and_carries_stone) {

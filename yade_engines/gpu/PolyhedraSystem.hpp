@@ -99,7 +99,8 @@ public:
     const ShapeProperties& shapeProperties(int shape) const;
 
     /// Adds a stone whose principal frame is at `position` with orientation (w,x,y,z) `orientation`;
-    /// velocities in the world frame. Returns its index. Stones may be added until the first `step`.
+    /// velocities in the world frame. Returns its index. Stones may be added until the first `step`, which
+    /// stores them in spatial order for speed; every accessor keeps speaking these indices.
     int addStone(int shape, const std::array<double, 3>& position, const std::array<double, 4>& orientation,
                  const std::array<double, 3>& velocity = {0, 0, 0},
                  const std::array<double, 3>& angularVelocity = {0, 0, 0});

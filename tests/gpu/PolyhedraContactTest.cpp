@@ -50,7 +50,7 @@ ContactLawConstants law(double E, double nu, double friction) {
 
 ContactResult staticContact(const ConvexCore& a, const ConvexCore& b, double r, const ContactLawConstants& constants,
                             double featureTolerance = 0.02) {
-    ContactSlot slot{1, 0, {0, 0, 0}, {0, 0, 0}, 0.0, 0};
+    ContactSlot slot{1, 0, 0.0f, {0, 0, 0}, {0, 0, 0}, 0};
     unsigned long long counters[counterCount] = {0, 0, 0, 0, 0};
     const ContactKinematics rest{Vec3{0, 0, 0}, Vec3{0, 0, 0}, Vec3{0, 0, 0}};
     ContactKinematics kinematicsB = rest;
@@ -585,7 +585,7 @@ BOOST_AUTO_TEST_CASE(wall_narrow_phase_keeps_warm_simplex_of_touching_contact) {
     double position[3] = {centre.x, centre.y, centre.z};
     railcosim::kernels::RotationState rotation{};
     rotation.orientation = q;
-    ContactSlot slot{0, 0, {0, 0, 0}, {0, 0, 0}, 0.0, 0};
+    ContactSlot slot{0, 0, 0.0f, {0, 0, 0}, {0, 0, 0}, 0};
     ContactGeometry geometry{};
     unsigned long long counters[counterCount] = {};
     SystemView view{};

@@ -12,7 +12,7 @@ void HostData::allocate() {
     resize(force, 3 * n);
     resize(torque, 3 * n);
     resize(referencePosition, 3 * n);
-    const ContactSlot empty{-1, 0, {0, 0, 0}, {0, 0, 0}, 0.0, 0};
+    const ContactSlot empty{-1, 0, 0.0f, {0, 0, 0}, {0, 0, 0}, 0};
     pairSlots.assign(n * maxPairs, empty);
     pairSlotsPrevious.assign(n * maxPairs, empty);
     wallSlots.assign(n * maxWalls, empty);

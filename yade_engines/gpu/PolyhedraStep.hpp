@@ -31,14 +31,18 @@ struct ShapeData {
 };
 
 // History of one contact candidate, kept across steps and carried over by partner id at list rebuilds.
-struct ContactSlot {
-    std::int32_t partner;     // stone j > i, or triangle index
-    std::int32_t active;      // 1 if in contact at the last evaluation
-    double elasticShear[3];   // elastic tangential force on the partner [N] (kernels/HertzMindlin.hpp)
-    double normal[3];         // last contact normal or separating axis (filter axis, GJK start without a simplex, core-overlap fallback)
-    double overlap;           // last overlap δ [m] (unloading correction of the tangential spring)
-    std::uint64_t simplex;    // last GJK simplex (support vertex pairs, CoreDistance::simplex): warm start; 0 if none
+// 64 bytes, 16-byte aligned: two whole 32-byte memory sectors per slot. The contact passes read and write
+// a slot per candidate every step; the earlier 72-byte slot straddled 3–4 sectors.
+struct alignas(16) ContactSlot {
+    std::int32_t partner : 30;  // stone j > i, or triangle index; −1: unused
+    std::uint32_t active : 2;   // 1 if in contact at the last evaluation, 2 a duplicate wall contact, 0 not
+    float overlap;              // last overlap δ [m]: only the unloading correction of the tangential spring (a
+                                // ratio of overlaps) and contact reports read it, single precision suffices
+    double elasticShear[3];     // elastic tangential force on the partner [N] (kernels/HertzMindlin.hpp)
+    double normal[3];           // last contact normal or separating axis (filter axis, GJK start without a simplex, core-overlap fallback)
+    std::uint64_t simplex;      // last GJK simplex (support vertex pairs, CoreDistance::simplex): warm start; 0 if none
 };
+static_assert(sizeof(ContactSlot) == 64, "a contact slot fills two memory sectors exactly");
 
 // Output of an active contact (written only when active; read for reporting).
 struct ContactOutput {
@@ -267,7 +271,7 @@ RAILCOSIM_HOST_DEVICE inline ContactSlot carriedSlot(const ContactSlot* previous
     for (int k = 0; k < previousCount; ++k) {
         if (previous[k].partner == partner) return previous[k];
     }
-    return ContactSlot{partner, 0, {0.0, 0.0, 0.0}, {0.0, 0.0, 0.0}, 0.0, 0};
+    return ContactSlot{partner, 0, 0.0f, {0.0, 0.0, 0.0}, {0.0, 0.0, 0.0}, 0};
 }
 
 // Squared distance from p to triangle (a,b,c) (Ericson §5.1.5), for the wall candidate test.
@@ -376,7 +380,7 @@ struct ContactResult {
 RAILCOSIM_HOST_DEVICE inline void releaseContact(ContactSlot& slot, const Vec3& axis) {
     slot.active = 0;
     slot.elasticShear[0] = slot.elasticShear[1] = slot.elasticShear[2] = 0.0;
-    slot.overlap = 0.0;
+    slot.overlap = 0.0f;
     slot.normal[0] = axis.x;
     slot.normal[1] = axis.y;
     slot.normal[2] = axis.z;
@@ -481,7 +485,7 @@ RAILCOSIM_HOST_DEVICE inline Vec3 contactForce(const ContactGeometry& g, double 
     slot.normal[0] = n.x;
     slot.normal[1] = n.y;
     slot.normal[2] = n.z;
-    slot.overlap = g.overlap;
+    slot.overlap = static_cast<float>(g.overlap);
     return normalForce * n + tangential.force;
 }
 
@@ -522,7 +526,7 @@ RAILCOSIM_HOST_DEVICE inline bool pairProvenApart(const SystemView& s, int i, lo
     if (apart && slotRef.active) {
         slotRef.active = 0;
         slotRef.elasticShear[0] = slotRef.elasticShear[1] = slotRef.elasticShear[2] = 0.0;
-        slotRef.overlap = 0.0;
+        slotRef.overlap = 0.0f;
     }
     return apart;
 }
@@ -606,7 +610,7 @@ RAILCOSIM_HOST_DEVICE inline bool wallProvenApart(const SystemView& s, int i, lo
         ContactSlot& slotRef = s.wallSlots[index];
         slotRef.active = 0;
         slotRef.elasticShear[0] = slotRef.elasticShear[1] = slotRef.elasticShear[2] = 0.0;
-        slotRef.overlap = 0.0;
+        slotRef.overlap = 0.0f;
     }
     s.wallGeometry[index].touching = false;
     return true;

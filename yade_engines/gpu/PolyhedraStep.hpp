@@ -266,10 +266,16 @@ RAILCOSIM_HOST_DEVICE inline void findCellBounds(const SystemView& s, int k) {
     if (k == s.stoneCount - 1 || s.cellKey[k + 1] != key) s.cellEnd[key] = k + 1;
 }
 
-// Copies the history of partner `partner` from the previous list of stone i, if it was there.
-RAILCOSIM_HOST_DEVICE inline ContactSlot carriedSlot(const ContactSlot* previous, int previousCount, int partner) {
-    for (int k = 0; k < previousCount; ++k) {
-        if (previous[k].partner == partner) return previous[k];
+// Copies the history of partner `partner` from the previous list of stone i, if it was there. Both lists come
+// from the same cell scan, so their partners mostly appear in the same order: the search goes on from just
+// after the last match (`cursor`, wrapping round), usually a single read instead of a scan of the old list.
+RAILCOSIM_HOST_DEVICE inline ContactSlot carriedSlot(const ContactSlot* previous, int previousCount, int partner, int& cursor) {
+    for (int n = 0; n < previousCount; ++n) {
+        const int k = cursor + n < previousCount ? cursor + n : cursor + n - previousCount;
+        if (previous[k].partner == partner) {
+            cursor = k + 1 < previousCount ? k + 1 : 0;
+            return previous[k];
+        }
     }
     return ContactSlot{partner, 0, 0.0f, {0.0, 0.0, 0.0}, {0.0, 0.0, 0.0}, 0};
 }
@@ -309,6 +315,7 @@ RAILCOSIM_HOST_DEVICE inline void buildNeighbours(const SystemView& s, int i, co
     const int oldCount = previousPairCount[i];
     int count = 0;
     int needed = 0;
+    int cursor = 0;
     // Hash collisions can map two of the 27 cells to one bucket: remember visited buckets.
     std::uint32_t visited[27];
     int visitedCount = 0;
@@ -329,7 +336,7 @@ RAILCOSIM_HOST_DEVICE inline void buildNeighbours(const SystemView& s, int i, co
                     const double reach = radius + s.shapes[s.shape[j]].boundingRadius + s.skin;
                     if (kernels::squaredNorm(load3(s.position, j) - x) > reach * reach) continue;
                     ++needed;
-                    if (count < s.maxPairs) out[count++] = carriedSlot(old, oldCount, j);
+                    if (count < s.maxPairs) out[count++] = carriedSlot(old, oldCount, j, cursor);
                 }
             }
         }
@@ -342,6 +349,7 @@ RAILCOSIM_HOST_DEVICE inline void buildNeighbours(const SystemView& s, int i, co
     const int wallOldCount = previousWallCount[i];
     int wallCount = 0;
     int wallNeeded = 0;
+    int wallCursor = 0;
     for (int t = 0; t < s.triangleCount; ++t) {
         const Vec3 a = load3(s.nodePosition, s.triangles[3 * t]);
         const Vec3 b = load3(s.nodePosition, s.triangles[3 * t + 1]);
@@ -349,7 +357,7 @@ RAILCOSIM_HOST_DEVICE inline void buildNeighbours(const SystemView& s, int i, co
         const double reach = radius + s.skin;
         if (kernels::squaredNorm(closestPointOnTriangle(x, a, b, c) - x) > reach * reach) continue;
         ++wallNeeded;
-        if (wallCount < s.maxWalls) wallOut[wallCount++] = carriedSlot(wallOld, wallOldCount, t);
+        if (wallCount < s.maxWalls) wallOut[wallCount++] = carriedSlot(wallOld, wallOldCount, t, wallCursor);
     }
     s.wallCount[i] = wallCount;
     if (wallNeeded > s.maxWalls) atomicMaximum(&s.counters[counterWallOverflow], static_cast<unsigned long long>(wallNeeded));

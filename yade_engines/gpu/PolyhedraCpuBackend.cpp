@@ -76,6 +76,7 @@ SystemView HostData::view() {
     v.gravity = gravity;
     v.skin = skin;
     v.featureTolerance = featureTolerance;
+    v.recordOutput = true;
     v.stoneLaw = stoneLaw;
     v.wallLaw = wallLaw;
     v.counters = counters;

@@ -544,6 +544,7 @@ private:
             check(cudaGetLastError(), "predict kernel");
             if (s == 0 && rebuild) enqueueRebuild(d);
             v = view(d);
+            v.recordOutput = s == count - 1;  // contact outputs: only a call's last step is ever read
             enqueueForces(d, v);
         }
         const SystemView v = view(d);

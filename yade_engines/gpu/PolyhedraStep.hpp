@@ -122,6 +122,10 @@ struct SystemView {
     Vec3 gravity;
     double skin;
     double featureTolerance;     // fraction of r_d
+    // Write pairOutput/wallOutput in this step. Only contacts() reads them, after a `step` call: the GPU
+    // records them in the last step of each graph chunk (48 scattered bytes per contact and step saved in
+    // the others); the CPU reference in every step.
+    bool recordOutput;
     ContactLawConstants stoneLaw;
     ContactLawConstants wallLaw;
     unsigned long long* counters;
@@ -559,6 +563,7 @@ enum class PairOutcome { apart, touching, deferred };
 RAILCOSIM_HOST_DEVICE inline PairOutcome pairContact(const SystemView& s, int i, long long index, int iterationLimit = 64) {
     ContactSlot slot = s.pairSlots[index];
     const int partner = slot.partner;
+    const bool wasActive = slot.active != 0;
     const ShapeData& shapeA = s.shapes[s.shape[i]];
     const ShapeData& shapeB = s.shapes[s.shape[partner]];
     const ConvexCore coreA = stoneCore(s, i);
@@ -566,7 +571,17 @@ RAILCOSIM_HOST_DEVICE inline PairOutcome pairContact(const SystemView& s, int i,
     const ContactGeometry g = contactGeometry(coreA, coreB, shapeA.dilationRadius, shapeB.dilationRadius, coreB.position - coreA.position,
                                               s.featureTolerance, slot, s.counters, iterationLimit);
     if (!g.touching) {
-        s.pairSlots[index] = slot;
+        // Not touching and not touching before (most survivors): only the axis and the simplex changed, and
+        // they fill the slot's second 32-byte sector; a whole-slot write would dirty both.
+        if (wasActive) {
+            s.pairSlots[index] = slot;
+        } else {
+            ContactSlot& stored = s.pairSlots[index];
+            stored.normal[0] = slot.normal[0];
+            stored.normal[1] = slot.normal[1];
+            stored.normal[2] = slot.normal[2];
+            stored.simplex = slot.simplex;
+        }
         return g.unfinished ? PairOutcome::deferred : PairOutcome::apart;
     }
     const ContactKinematics kinematicsA{load3(s.velocity, i), s.rotation[i].angularVelocity, load3(s.position, i)};
@@ -574,9 +589,11 @@ RAILCOSIM_HOST_DEVICE inline PairOutcome pairContact(const SystemView& s, int i,
     const Vec3 force = contactForce(g, kernels::effectiveRadius(shapeA.dilationRadius, shapeB.dilationRadius),
                                     kernels::effectiveMass(shapeA.mass, shapeB.mass), s.stoneLaw, kinematicsA, kinematicsB, s.timeStep, slot);
     s.pairSlots[index] = slot;
-    ContactOutput& out = s.pairOutput[index];
-    store3(out.point, 0, g.point);
-    store3(out.force, 0, force);
+    if (s.recordOutput) {
+        ContactOutput& out = s.pairOutput[index];
+        store3(out.point, 0, g.point);
+        store3(out.force, 0, force);
+    }
     atomicAccumulate3(s.force, partner, force);
     atomicAccumulate3(s.torque, partner, kernels::cross(g.point - kinematicsB.centre, force));
     atomicAccumulate3(s.force, i, -force);
@@ -728,9 +745,11 @@ RAILCOSIM_HOST_DEVICE inline int stoneWallForces(const SystemView& s, int i) {
         }
         s.wallSlots[index] = slot;
         ++active;
-        ContactOutput& out = s.wallOutput[index];
-        store3(out.point, 0, g.point);
-        store3(out.force, 0, force);
+        if (s.recordOutput) {
+            ContactOutput& out = s.wallOutput[index];
+            store3(out.point, 0, g.point);
+            store3(out.force, 0, force);
+        }
         forceA -= force;
         torqueA -= kernels::cross(g.point - xA, force);
         accumulateTriangleSums(s, partner, force, g.point);

@@ -333,6 +333,22 @@ RAILCOSIM_HOST_DEVICE inline bool closestOnSimplex(const Pair& pair, Simplex& s,
     }
 }
 
+// closestOnSimplex for a simplex of 1–3 vertices (a warm start: no tetrahedron case), the same arithmetic.
+// Separate so that the GPU's first narrow-phase pass, which never grows the simplex, does not carry the
+// tetrahedron code: 208 → 151 registers for the warm-started GJK (measured with ptxas, sm_90).
+RAILCOSIM_HOST_DEVICE inline void closestOnWarmSimplex(const Pair& pair, Simplex& s, Weights& weights, Vec3& closest) {
+    if (s.count == 1) {
+        weights = Weights{1.0, 0.0, 0.0, 0.0};
+        closest = point(pair, s.p0);
+    } else if (s.count == 2) {
+        const SimplexVertex P = s.p0, Q = s.p1;
+        closestOnSegment(pair, P, Q, s, weights, closest);
+    } else {
+        const SimplexVertex P = s.p0, Q = s.p1, R = s.p2;
+        closestOnTriangle(pair, P, Q, R, s, weights, closest);
+    }
+}
+
 RAILCOSIM_HOST_DEVICE inline bool sameSupport(const SimplexVertex& v, int a, int b) { return v.a == a && v.b == b; }
 
 // A simplex of 1–3 vertices packed in 64 bits: the count in bits 0–1, then per vertex 10 bits of A's and
@@ -388,7 +404,7 @@ RAILCOSIM_HOST_DEVICE inline CoreDistance coreDistance(const ConvexCore& A, cons
         s.p2 = warmCount > 2 ? detail::decodeSimplexVertex(warmSimplex, 2) : s.p0;
         s.p3 = s.p0;
         s.count = warmCount;
-        detail::closestOnSimplex(pair, s, weights, v);  // at most a triangle: always succeeds
+        detail::closestOnWarmSimplex(pair, s, weights, v);
     } else {
         Vec3 direction = initialDirection;
         if (kernels::squaredNorm(direction) < 1e-300) direction = Vec3{1.0, 0.0, 0.0};

@@ -166,8 +166,9 @@ __global__ void __launch_bounds__(blockSize) filterKernel(SystemView s, const st
 // override with -DRAILCOSIM_POLYHEDRA_CONTACT_MIN_BLOCKS=n.
 // Pairs run in two launches: the first stops GJK after pairFirstPassIterations and appends the unfinished
 // candidates to `deferred`; the second (Resume) finishes those (PolyhedraStep.hpp, pairFirstPassIterations).
-// The first pass needs ~235 registers; capping it with -DRAILCOSIM_POLYHEDRA_FIRST_PASS_MIN_BLOCKS=3 (168,
-// 0.8 kB spilled) or 4 (128, 2.6 kB) measured 3.61e8 and 3.42e8 particle-steps/s at 1e6 stones against 4.02e8.
+// The first pass needs 174 registers (2 blocks of 128 per multiprocessor); capping it with
+// -DRAILCOSIM_POLYHEDRA_FIRST_PASS_MIN_BLOCKS=3 (168, no spills) measured 5.81e8 and 5.90e8 particle-steps/s
+// at 1e6 stones against 6.03e8: more resident warps do not help it.
 #ifndef RAILCOSIM_POLYHEDRA_CONTACT_MIN_BLOCKS
 #define RAILCOSIM_POLYHEDRA_CONTACT_MIN_BLOCKS 1
 #endif

@@ -402,6 +402,12 @@ BOOST_AUTO_TEST_CASE(stone_indices_stay_the_users_after_spatial_ordering) {
     // Force on `second`, normal from first to second: the one on user 2 points to +x.
     const double onUser2 = contacts[0].second == 2 ? contacts[0].force[0] : -contacts[0].force[0];
     BOOST_TEST(std::fabs(onUser2 - force[6]) < 1e-12 * force[6]);
+    // Input that would poison the storage order (and everything else) is refused with the stone's index.
+    PolyhedraSystem other(quietParameters(0.5, 0.5));
+    const int shape = other.addShape(cubeTemplate(0.01, 0.001, 2600));
+    BOOST_CHECK_THROW(other.addStone(shape, {std::nan(""), 0.0, 0.0}, {1, 0, 0, 0}), railcosim::Error);
+    BOOST_CHECK_THROW(other.addStone(shape, {0.0, 0.0, 0.0}, {0, 0, 0, 0}), railcosim::Error);
+    BOOST_TEST(other.stoneCount() == 0u);
     // setState takes the user's order: moving user 0 only moves user 0.
     std::vector<double> moved = position;
     moved[0] += 0.25;

@@ -378,6 +378,12 @@ int PolyhedraSystem::addStone(int shape, const std::array<double, 3>& position, 
     if (shape < 0 || static_cast<std::size_t>(shape) >= m.data.shapes.size())
         fail("addStone", "shape index " + std::to_string(shape) + " does not exist; call addShape first");
     HostData& d = m.data;
+    const auto finite = [](const auto& values) { return std::all_of(values.begin(), values.end(), [](double v) { return std::isfinite(v); }); };
+    if (!finite(position) || !finite(velocity) || !finite(angularVelocity) || !finite(orientation))
+        fail("addStone", "stone " + std::to_string(d.stoneCount) + ": position, orientation and velocities must be finite numbers");
+    const double orientationNorm =
+        std::sqrt(orientation[0] * orientation[0] + orientation[1] * orientation[1] + orientation[2] * orientation[2] + orientation[3] * orientation[3]);
+    if (!(orientationNorm > 1e-12)) fail("addStone", "stone " + std::to_string(d.stoneCount) + ": the orientation quaternion is zero");
     Quat q = normalized(Quat{orientation[0], orientation[1], orientation[2], orientation[3]});
     d.position.insert(d.position.end(), position.begin(), position.end());
     d.velocity.insert(d.velocity.end(), velocity.begin(), velocity.end());

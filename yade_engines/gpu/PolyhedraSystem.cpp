@@ -438,6 +438,11 @@ void PolyhedraSystem::step(int steps) {
     HostData& d = m.data;
     if (!m.started) {
         if (d.stoneCount == 0) fail("step", "no stones: add stones before stepping");
+        // A contact slot keeps its partner (stone or triangle) in 30 bits.
+        constexpr int partnerLimit = 1 << 29;
+        if (d.stoneCount >= partnerLimit || d.triangleCount() >= partnerLimit)
+            fail("step", std::to_string(d.stoneCount) + " stones and " + std::to_string(d.triangleCount()) + " triangles: at most " +
+                             std::to_string(partnerLimit - 1) + " of each");
         double maxBounding = 0.0, meanDilation = 0.0;
         for (std::int32_t s : d.shape) {
             maxBounding = std::max(maxBounding, d.shapes[s].boundingRadius);

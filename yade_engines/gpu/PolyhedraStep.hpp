@@ -32,14 +32,15 @@ struct ShapeData {
 
 // History of one contact candidate, kept across steps and carried over by partner id at list rebuilds.
 // 64 bytes, 16-byte aligned: two whole 32-byte memory sectors per slot. The contact passes read and write
-// a slot per candidate every step; the earlier 72-byte slot straddled 3–4 sectors.
+// a slot per candidate every step; the earlier 72-byte slot straddled 3–4 sectors. The first sector holds
+// all that the filter reads (partner, state, axis), the second the law's history and GJK's warm start.
 struct alignas(16) ContactSlot {
     std::int32_t partner : 30;  // stone j > i, or triangle index; −1: unused
     std::uint32_t active : 2;   // 1 if in contact at the last evaluation, 2 a duplicate wall contact, 0 not
     float overlap;              // last overlap δ [m]: only the unloading correction of the tangential spring (a
                                 // ratio of overlaps) and contact reports read it, single precision suffices
-    double elasticShear[3];     // elastic tangential force on the partner [N] (kernels/HertzMindlin.hpp)
     double normal[3];           // last contact normal or separating axis (filter axis, GJK start without a simplex, core-overlap fallback)
+    double elasticShear[3];     // elastic tangential force on the partner [N] (kernels/HertzMindlin.hpp)
     std::uint64_t simplex;      // last GJK simplex (support vertex pairs, CoreDistance::simplex): warm start; 0 if none
 };
 static_assert(sizeof(ContactSlot) == 64, "a contact slot fills two memory sectors exactly");
@@ -571,8 +572,8 @@ RAILCOSIM_HOST_DEVICE inline PairOutcome pairContact(const SystemView& s, int i,
     const ContactGeometry g = contactGeometry(coreA, coreB, shapeA.dilationRadius, shapeB.dilationRadius, coreB.position - coreA.position,
                                               s.featureTolerance, slot, s.counters, iterationLimit);
     if (!g.touching) {
-        // Not touching and not touching before (most survivors): only the axis and the simplex changed, and
-        // they fill the slot's second 32-byte sector; a whole-slot write would dirty both.
+        // Not touching and not touching before: only the axis and the simplex changed (the spring and the
+        // overlap stay zero), so only they are written.
         if (wasActive) {
             s.pairSlots[index] = slot;
         } else {

@@ -485,7 +485,10 @@ RAILCOSIM_HOST_DEVICE inline Vec3 contactForce(const ContactGeometry& g, double 
                                        law.dampingRatio};
     const double normalForce = kernels::hertzNormalForce(params, g.overlap, overlapRate);
     const Vec3 history{slot.elasticShear[0], slot.elasticShear[1], slot.elasticShear[2]};
-    const double previousOverlap = slot.active ? slot.overlap : 0.0;
+    // The slot keeps the last overlap in single precision. The unloading correction is one-sided (it scales
+    // the spring whenever the stiffness fell), so an unchanged overlap must compare equal: a rounded-up copy
+    // would shrink a static spring by up to 3e-8 every step (3 % per 1e6 steps).
+    const double previousOverlap = !slot.active ? 0.0 : static_cast<float>(g.overlap) == slot.overlap ? g.overlap : slot.overlap;
     const Vec3 tangentialVelocity = kernels::tangentialPart(relative, n);
     const kernels::TangentialForceResult tangential = kernels::mindlinTangentialForce(
         params, slot.active ? history : Vec3{0.0, 0.0, 0.0}, n, g.overlap, previousOverlap, timeStep * tangentialVelocity,

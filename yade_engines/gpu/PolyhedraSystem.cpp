@@ -132,6 +132,22 @@ struct PolyhedraSystem::Implementation {
         return result;
     }
     void storeInSpatialOrder();
+    void restoreUserOrder();
+    // Per-stone arrays that exist before the first step, permuted by storeInSpatialOrder.
+    // Moves the values of stone k to stone target(k).
+    template <typename Target>
+    void permuteStones(Target target) {
+        HostData& d = data;
+        auto permute = [&](auto& values, std::size_t width) {
+            auto copy = values;
+            for (std::size_t k = 0; k < userOf.size(); ++k)
+                for (std::size_t c = 0; c < width; ++c) values[width * target(k) + c] = copy[width * k + c];
+        };
+        permute(d.position, 3);
+        permute(d.velocity, 3);
+        permute(d.rotation, 1);
+        permute(d.shape, 1);
+    }
 
     void sync() {
         if (!hostCurrent) {
@@ -163,7 +179,8 @@ void PolyhedraSystem::Implementation::storeInSpatialOrder() {
         return r;
     };
     auto cell = [&](double x, double origin) {
-        return static_cast<std::uint64_t>(std::min(std::floor((x - origin) / d.cellSize), 2097151.0));
+        const double c = std::floor((x - origin) / d.cellSize);
+        return c >= 0.0 ? static_cast<std::uint64_t>(std::min(c, 2097151.0)) : std::uint64_t{0};  // NaN: 0
     };
     std::vector<std::pair<std::uint64_t, std::int32_t>> keyed(n);
     for (std::size_t i = 0; i < n; ++i) {
@@ -178,15 +195,16 @@ void PolyhedraSystem::Implementation::storeInSpatialOrder() {
         userOf[k] = keyed[k].second;
         storedOf[keyed[k].second] = static_cast<std::int32_t>(k);
     }
-    auto permute = [&](auto& values, std::size_t width) {
-        auto copy = values;
-        for (std::size_t k = 0; k < n; ++k)
-            for (std::size_t c = 0; c < width; ++c) values[width * k + c] = copy[width * static_cast<std::size_t>(userOf[k]) + c];
-    };
-    permute(d.position, 3);
-    permute(d.velocity, 3);
-    permute(d.rotation, 1);
-    permute(d.shape, 1);
+    permuteStones([&](std::size_t user) { return static_cast<std::size_t>(storedOf[user]); });
+}
+
+// Undoes storeInSpatialOrder when the first step fails before it started (e.g. out of device memory), so
+// that a retry, or more addStone calls, find the arrays in the user's order again.
+void PolyhedraSystem::Implementation::restoreUserOrder() {
+    if (userOf.empty()) return;
+    permuteStones([&](std::size_t storedIndex) { return static_cast<std::size_t>(userOf[storedIndex]); });
+    userOf.clear();
+    storedOf.clear();
 }
 
 PolyhedraSystem::PolyhedraSystem(const Parameters& p) : implementation_(std::make_unique<Implementation>()) {
@@ -453,8 +471,13 @@ void PolyhedraSystem::step(int steps) {
         d.skin = m.parameters.neighbourSkin >= 0.0 ? m.parameters.neighbourSkin : 0.2 * meanDilation;
         d.cellSize = 2.0 * maxBounding + d.skin;
         m.storeInSpatialOrder();
-        d.allocate();
-        m.backend->upload(d);
+        try {
+            d.allocate();
+            m.backend->upload(d);
+        } catch (...) {
+            m.restoreUserOrder();
+            throw;
+        }
         m.started = true;
     }
     if (steps == 0) return;
@@ -536,6 +559,16 @@ void PolyhedraSystem::setState(const std::vector<double>& positions, const std::
     const std::size_t n = static_cast<std::size_t>(d.stoneCount);
     if (positions.size() != 3 * n || orientations.size() != 4 * n || velocities.size() != 3 * n || angularVelocities.size() != 3 * n)
         fail("setState", "expected 3/4/3/3 values per stone for " + std::to_string(n) + " stones");
+    // Checked before anything changes: a refused call leaves the state as it was.
+    for (std::size_t i = 0; i < n; ++i) {
+        bool finite = true;
+        for (std::size_t c = 0; c < 3; ++c)
+            finite = finite && std::isfinite(positions[3 * i + c]) && std::isfinite(velocities[3 * i + c]) && std::isfinite(angularVelocities[3 * i + c]);
+        double norm2 = 0.0;
+        for (std::size_t c = 0; c < 4; ++c) norm2 += orientations[4 * i + c] * orientations[4 * i + c];
+        if (!finite || !std::isfinite(norm2)) fail("setState", "stone " + std::to_string(i) + ": position, orientation and velocities must be finite numbers");
+        if (!(norm2 > 1e-24)) fail("setState", "stone " + std::to_string(i) + ": the orientation quaternion is zero");
+    }
     m.sync();
     for (std::size_t i = 0; i < n; ++i) {  // i: the user's index
         const std::size_t k = m.stored(i);

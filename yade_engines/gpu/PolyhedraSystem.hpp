@@ -145,8 +145,8 @@ public:
     std::vector<double> triangleForces() const;
     std::vector<double> triangleContactPoints() const;
 
-    /// Active contacts at the last force evaluation (recomputed from the current state and history
-    /// without changing either).
+    /// Active contacts at the last force evaluation of the last `step` call, in no particular order; `first`
+    /// and `second` are addStone indices (`first` may be the larger one).
     std::vector<ContactRecord> contacts() const;
 
     struct Implementation;

@@ -44,6 +44,7 @@ struct alignas(16) ContactSlot {
     std::uint64_t simplex;      // last GJK simplex (support vertex pairs, CoreDistance::simplex): warm start; 0 if none
 };
 static_assert(sizeof(ContactSlot) == 64, "a contact slot fills two memory sectors exactly");
+constexpr int partnerLimit = 1 << 29;  // stones and triangles a 30-bit signed partner field can name
 
 // Output of an active contact (written only when active; read for reporting).
 struct ContactOutput {
@@ -143,6 +144,13 @@ RAILCOSIM_HOST_DEVICE inline void store3(double* a, int i, const Vec3& v) {
 }
 
 // Atomic accumulation: hardware atomics on the device, OpenMP atomics in the CPU reference.
+// Contact point and force for contacts(), in the steps that record them (SystemView::recordOutput).
+RAILCOSIM_HOST_DEVICE inline void writeContactOutput(const SystemView& s, ContactOutput& out, const Vec3& point, const Vec3& force) {
+    if (!s.recordOutput) return;
+    store3(out.point, 0, point);
+    store3(out.force, 0, force);
+}
+
 RAILCOSIM_HOST_DEVICE inline void atomicAccumulate(double* address, double value) {
 #if defined(RAILCOSIM_POLYHEDRA_DEVICE_PASS)
     atomicAdd(address, value);
@@ -593,11 +601,7 @@ RAILCOSIM_HOST_DEVICE inline PairOutcome pairContact(const SystemView& s, int i,
     const Vec3 force = contactForce(g, kernels::effectiveRadius(shapeA.dilationRadius, shapeB.dilationRadius),
                                     kernels::effectiveMass(shapeA.mass, shapeB.mass), s.stoneLaw, kinematicsA, kinematicsB, s.timeStep, slot);
     s.pairSlots[index] = slot;
-    if (s.recordOutput) {
-        ContactOutput& out = s.pairOutput[index];
-        store3(out.point, 0, g.point);
-        store3(out.force, 0, force);
-    }
+    writeContactOutput(s, s.pairOutput[index], g.point, force);
     atomicAccumulate3(s.force, partner, force);
     atomicAccumulate3(s.torque, partner, kernels::cross(g.point - kinematicsB.centre, force));
     atomicAccumulate3(s.force, i, -force);
@@ -749,11 +753,7 @@ RAILCOSIM_HOST_DEVICE inline int stoneWallForces(const SystemView& s, int i) {
         }
         s.wallSlots[index] = slot;
         ++active;
-        if (s.recordOutput) {
-            ContactOutput& out = s.wallOutput[index];
-            store3(out.point, 0, g.point);
-            store3(out.force, 0, force);
-        }
+        writeContactOutput(s, s.wallOutput[index], g.point, force);
         forceA -= force;
         torqueA -= kernels::cross(g.point - xA, force);
         accumulateTriangleSums(s, partner, force, g.point);

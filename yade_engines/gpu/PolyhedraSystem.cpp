@@ -20,6 +20,26 @@ namespace {
     throw Error("PolyhedraSystem::" + where + ": " + what);
 }
 
+// The state of one stone (3, 4, 3, 3 values) as addStone and setState accept it: finite, non-zero quaternion.
+void checkStoneState(const std::string& where, std::size_t stone, const double* position, const double* orientation, const double* velocity,
+                     const double* angularVelocity) {
+    bool finite = true;
+    double norm2 = 0.0;
+    for (int c = 0; c < 3; ++c) finite = finite && std::isfinite(position[c]) && std::isfinite(velocity[c]) && std::isfinite(angularVelocity[c]);
+    for (int c = 0; c < 4; ++c) norm2 += orientation[c] * orientation[c];
+    if (!finite || !std::isfinite(norm2)) fail(where, "stone " + std::to_string(stone) + ": position, orientation and velocities must be finite numbers");
+    if (!(norm2 > 1e-24)) fail(where, "stone " + std::to_string(stone) + ": the orientation quaternion is zero");
+}
+
+// `values` (width per stone) with the values of stone k moved to stone target(k).
+template <typename Values, typename Target>
+Values scattered(const Values& values, std::size_t width, std::size_t count, Target target) {
+    Values result(values.size());
+    for (std::size_t k = 0; k < count; ++k)
+        for (std::size_t c = 0; c < width; ++c) result[width * target(k) + c] = values[width * k + c];
+    return result;
+}
+
 // Cyclic Jacobi diagonalisation of a symmetric 3×3 matrix: eigenvalues and eigenvectors (columns of v).
 void jacobiEigen(double a[3][3], double values[3], double v[3][3]) {
     for (int r = 0; r < 3; ++r)
@@ -126,10 +146,7 @@ struct PolyhedraSystem::Implementation {
     // `width` values per stone, stored order -> user order.
     std::vector<double> inUserOrder(const std::vector<double>& values, std::size_t width) const {
         if (userOf.empty()) return values;
-        std::vector<double> result(values.size());
-        for (std::size_t k = 0; k < userOf.size(); ++k)
-            for (std::size_t c = 0; c < width; ++c) result[width * static_cast<std::size_t>(userOf[k]) + c] = values[width * k + c];
-        return result;
+        return scattered(values, width, userOf.size(), [&](std::size_t k) { return user(k); });
     }
     void storeInSpatialOrder();
     void restoreUserOrder();
@@ -138,15 +155,11 @@ struct PolyhedraSystem::Implementation {
     template <typename Target>
     void permuteStones(Target target) {
         HostData& d = data;
-        auto permute = [&](auto& values, std::size_t width) {
-            auto copy = values;
-            for (std::size_t k = 0; k < userOf.size(); ++k)
-                for (std::size_t c = 0; c < width; ++c) values[width * target(k) + c] = copy[width * k + c];
-        };
-        permute(d.position, 3);
-        permute(d.velocity, 3);
-        permute(d.rotation, 1);
-        permute(d.shape, 1);
+        const std::size_t n = userOf.size();
+        d.position = scattered(d.position, 3, n, target);
+        d.velocity = scattered(d.velocity, 3, n, target);
+        d.rotation = scattered(d.rotation, 1, n, target);
+        d.shape = scattered(d.shape, 1, n, target);
     }
 
     void sync() {
@@ -195,14 +208,14 @@ void PolyhedraSystem::Implementation::storeInSpatialOrder() {
         userOf[k] = keyed[k].second;
         storedOf[keyed[k].second] = static_cast<std::int32_t>(k);
     }
-    permuteStones([&](std::size_t user) { return static_cast<std::size_t>(storedOf[user]); });
+    permuteStones([&](std::size_t k) { return stored(k); });
 }
 
 // Undoes storeInSpatialOrder when the first step fails before it started (e.g. out of device memory), so
 // that a retry, or more addStone calls, find the arrays in the user's order again.
 void PolyhedraSystem::Implementation::restoreUserOrder() {
     if (userOf.empty()) return;
-    permuteStones([&](std::size_t storedIndex) { return static_cast<std::size_t>(userOf[storedIndex]); });
+    permuteStones([&](std::size_t k) { return user(k); });
     userOf.clear();
     storedOf.clear();
 }
@@ -396,12 +409,7 @@ int PolyhedraSystem::addStone(int shape, const std::array<double, 3>& position, 
     if (shape < 0 || static_cast<std::size_t>(shape) >= m.data.shapes.size())
         fail("addStone", "shape index " + std::to_string(shape) + " does not exist; call addShape first");
     HostData& d = m.data;
-    const auto finite = [](const auto& values) { return std::all_of(values.begin(), values.end(), [](double v) { return std::isfinite(v); }); };
-    if (!finite(position) || !finite(velocity) || !finite(angularVelocity) || !finite(orientation))
-        fail("addStone", "stone " + std::to_string(d.stoneCount) + ": position, orientation and velocities must be finite numbers");
-    const double orientationNorm =
-        std::sqrt(orientation[0] * orientation[0] + orientation[1] * orientation[1] + orientation[2] * orientation[2] + orientation[3] * orientation[3]);
-    if (!(orientationNorm > 1e-12)) fail("addStone", "stone " + std::to_string(d.stoneCount) + ": the orientation quaternion is zero");
+    checkStoneState("addStone", static_cast<std::size_t>(d.stoneCount), position.data(), orientation.data(), velocity.data(), angularVelocity.data());
     Quat q = normalized(Quat{orientation[0], orientation[1], orientation[2], orientation[3]});
     d.position.insert(d.position.end(), position.begin(), position.end());
     d.velocity.insert(d.velocity.end(), velocity.begin(), velocity.end());
@@ -457,7 +465,6 @@ void PolyhedraSystem::step(int steps) {
     if (!m.started) {
         if (d.stoneCount == 0) fail("step", "no stones: add stones before stepping");
         // A contact slot keeps its partner (stone or triangle) in 30 bits.
-        constexpr int partnerLimit = 1 << 29;
         if (d.stoneCount >= partnerLimit || d.triangleCount() >= partnerLimit)
             fail("step", std::to_string(d.stoneCount) + " stones and " + std::to_string(d.triangleCount()) + " triangles: at most " +
                              std::to_string(partnerLimit - 1) + " of each");
@@ -560,15 +567,8 @@ void PolyhedraSystem::setState(const std::vector<double>& positions, const std::
     if (positions.size() != 3 * n || orientations.size() != 4 * n || velocities.size() != 3 * n || angularVelocities.size() != 3 * n)
         fail("setState", "expected 3/4/3/3 values per stone for " + std::to_string(n) + " stones");
     // Checked before anything changes: a refused call leaves the state as it was.
-    for (std::size_t i = 0; i < n; ++i) {
-        bool finite = true;
-        for (std::size_t c = 0; c < 3; ++c)
-            finite = finite && std::isfinite(positions[3 * i + c]) && std::isfinite(velocities[3 * i + c]) && std::isfinite(angularVelocities[3 * i + c]);
-        double norm2 = 0.0;
-        for (std::size_t c = 0; c < 4; ++c) norm2 += orientations[4 * i + c] * orientations[4 * i + c];
-        if (!finite || !std::isfinite(norm2)) fail("setState", "stone " + std::to_string(i) + ": position, orientation and velocities must be finite numbers");
-        if (!(norm2 > 1e-24)) fail("setState", "stone " + std::to_string(i) + ": the orientation quaternion is zero");
-    }
+    for (std::size_t i = 0; i < n; ++i)
+        checkStoneState("setState", i, &positions[3 * i], &orientations[4 * i], &velocities[3 * i], &angularVelocities[3 * i]);
     m.sync();
     for (std::size_t i = 0; i < n; ++i) {  // i: the user's index
         const std::size_t k = m.stored(i);

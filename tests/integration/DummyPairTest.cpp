@@ -137,8 +137,10 @@ void runPair(const std::string& endpoint, const std::string& scheme, bool femFir
     sleepSeconds(0.3);
     fem = std::make_unique<Process>(RAILCOSIM_DUMMY_FEM, femArguments);
   }
-  BOOST_TEST(dem->wait(60) == 0);
-  BOOST_TEST(fem->wait(10) == 0);
+  const int demExit = dem->wait(60);
+  const int femExit = fem->wait(10);
+  BOOST_TEST(demExit == 0, "DEM dummy exit " << demExit << ", stderr: " << dem->errors());
+  BOOST_TEST(femExit == 0, "FEM dummy exit " << femExit << ", stderr: " << fem->errors());
   BOOST_TEST_MESSAGE(dem->output() << fem->output());
   BOOST_TEST(contains(dem->output(), "railcosim_dummy_dem: OK " + std::to_string(windows) + " windows"));
   BOOST_TEST(contains(fem->output(), "railcosim_dummy_fem: OK " + std::to_string(windows) + " windows"));

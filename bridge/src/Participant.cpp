@@ -10,6 +10,7 @@
 
 #include <chrono>
 #include <cmath>
+#include <cstdlib>
 #include <exception>
 #include <sstream>
 
@@ -64,6 +65,11 @@ public:
     options.endpoint = config_.endpoint;
     options.side = role_ == protocol::Role::Fem ? com::Side::Bind : com::Side::Connect;
     options.heartbeatSeconds = config_.heartbeatSeconds;
+    options.token = config_.token;
+    if (options.token.empty()) {
+      if (const char* fromEnvironment = std::getenv("RAILCOSIM_BRIDGE_TOKEN")) options.token = fromEnvironment;
+    }
+    options.maxMessageBytes = protocol::maxMessageBytes;
     // Long enough to flush a final message to a live peer, short enough that closing never hangs.
     options.lingerMilliseconds = static_cast<int>(std::min(1000.0, config_.timeoutSeconds * 1000.0));
     try {
@@ -93,6 +99,10 @@ public:
         statistics_.bytes += size;
       }
       return;
+    }
+    if (status == com::Status::Refused) {
+      markClosed("the peer refused this participant");
+      throw PeerLostError(refusedMessage());
     }
     if (status == com::Status::PeerDisconnected) {
       // A peer that finalized and closed before reading this message is a normal end, not a loss
@@ -149,6 +159,18 @@ public:
     if (status == com::Status::PeerDisconnected) {
       markClosed("the connection to the peer ended with an error");
       throw PeerLostError(disconnectedMessage("waiting for " + waitingFor));
+    }
+    if (status == com::Status::Refused) {
+      markClosed("the peer refused this participant");
+      throw PeerLostError(refusedMessage());
+    }
+    if (status == com::Status::PeerSilent) {
+      markClosed("the peer fell silent");
+      std::ostringstream text;
+      text << self() << ": " << peerLabel() << " on " << config_.endpoint << " sent nothing, not even its keepalive, for "
+           << formatSeconds(3 * config_.heartbeatSeconds) << " while this side waited for " << waitingFor << "; the "
+           << peerRole_ << " process is frozen (stopped, swapped out or stuck in a system call) or the network is gone";
+      throw PeerLostError(text.str());
     }
     if (status == com::Status::Timeout) {
       markClosed("the connection to the peer ended with an error");
@@ -230,11 +252,16 @@ public:
     return bytes;
   }
 
+  std::string refusedMessage() const {
+    return self() + ": the " + peerRole_ + " participant on " + config_.endpoint +
+           " refused this participant: the run tokens differ (RAILCOSIM_BRIDGE_TOKEN or ParticipantConfig::token), "
+           "or another participant already joined that run";
+  }
+
   std::string disconnectedMessage(const std::string& doing) const {
     std::ostringstream text;
     text << self() << ": " << peerLabel() << " disconnected from " << config_.endpoint << " while " << doing
-         << "; the " << peerRole_ << " process probably died (or froze: no heartbeat for "
-         << 3 * config_.heartbeatSeconds << " s) - check its log";
+         << "; the " << peerRole_ << " process probably died - check its log";
     return text.str();
   }
 

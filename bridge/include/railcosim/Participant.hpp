@@ -12,7 +12,8 @@
 namespace railcosim {
 
 /// How a participant reaches its peer. The FEM side binds, the DEM side connects; either may start
-/// first (the connecting side retries until the peer appears or `timeoutSeconds` passes).
+/// first (the connecting side retries until the peer appears or `timeoutSeconds` passes). A tcp endpoint
+/// written with host '*' binds to 127.0.0.1 only.
 struct ParticipantConfig {
   std::string name;                 // this participant, e.g. "fem" (printed in every error)
   std::string endpoint;             // ZeroMQ endpoint, e.g. "ipc:///tmp/railcosim-1234.sock" or "tcp://127.0.0.1:5555"
@@ -20,6 +21,9 @@ struct ParticipantConfig {
   double heartbeatSeconds = 1.0;    // transport heartbeat: a frozen or dead peer is detected in ~3x this
   std::string couplingScheme;       // optional "justInTime" | "predictive" | "implicit": announced at the handshake;
                                     // when both sides name one, a mismatch is refused there
+  std::string token;                // run secret shared by both sides (empty: the environment variable
+                                    // RAILCOSIM_BRIDGE_TOKEN, else none); the FEM side admits only the first
+                                    // participant presenting it, and binding a non-loopback tcp host needs one
 };
 
 /// What the DEM side learns at the handshake.

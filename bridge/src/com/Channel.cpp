@@ -1,4 +1,4 @@
-// ZeroMQ PAIR transport with heartbeats, a disconnect monitor, send/receive deadlines and short linger.
+// ZeroMQ PAIR transport with admission control, heartbeats, a disconnect monitor, deadlines and short linger.
 #include "com/Channel.hpp"
 #include "railcosim/Error.hpp"
 #include "railcosim/Log.hpp"
@@ -9,12 +9,14 @@
 #include <atomic>
 #include <cerrno>
 #include <chrono>
+#include <condition_variable>
 #include <cstring>
 #include <memory>
 #include <mutex>
 #include <set>
 #include <sstream>
 #include <sys/stat.h>
+#include <thread>
 #include <unistd.h>
 
 namespace railcosim::com {
@@ -69,7 +71,139 @@ void removeIpcFile(const ChannelOptions& options) {
   }
 }
 
+/// The PLAIN user name every railcosim participant presents; the token is the password.
+constexpr const char* participantUser = "railcosim";
+
+/// PLAIN refuses an empty password, so a run without a token presents this fixed one (and the binding
+/// side expects it): without a token the admission still lets only one railcosim participant in.
+std::string plainPassword(const std::string& token) { return token.empty() ? "no-token" : token; }
+
+bool sameSecret(const std::string& presented, const std::string& expected) {
+  // Compares every byte whatever the first difference, so the time taken does not reveal a prefix.
+  unsigned char difference = presented.size() == expected.size() ? 0 : 1;
+  for (std::size_t i = 0; i < presented.size(); ++i) {
+    difference |= static_cast<unsigned char>(presented[i] ^ (i < expected.size() ? expected[i] : 0));
+  }
+  return difference == 0;
+}
+
+/// ZeroMQ's peer address of an ipc connection on Linux ends in ":uid:gid:pid" (SO_PEERCRED); a process of
+/// another user is refused even if it can reach the socket file.
+bool sameUserOrNotIpc(const std::string& address) {
+  if (address.empty() || address.front() != ':') return true;  // tcp: an IP address
+  const std::size_t end = address.find(':', 1);
+  try {
+    return std::stoul(address.substr(1, end - 1)) == static_cast<unsigned long>(::geteuid());
+  } catch (const std::exception&) {
+    return false;
+  }
+}
+
+std::vector<std::string> receiveParts(void* socket) {
+  std::vector<std::string> parts;
+  int more = 1;
+  while (more) {
+    zmq_msg_t part;
+    zmq_msg_init(&part);
+    if (zmq_msg_recv(&part, socket, 0) < 0) {
+      zmq_msg_close(&part);
+      break;
+    }
+    parts.emplace_back(static_cast<const char*>(zmq_msg_data(&part)), zmq_msg_size(&part));
+    more = zmq_msg_more(&part);
+    zmq_msg_close(&part);
+  }
+  return parts;
+}
+
 } // namespace
+
+/// ZAP handler of the binding side (RFC 27, run by ZeroMQ during each connection's handshake): admits the
+/// first connection presenting the participant user and the run token, refuses every other one. A
+/// refused connection never becomes a pipe of the PAIR socket, so it can neither send a message nor
+/// reach libzmq 4.3.4's heartbeat assertion on a second PAIR peer (stream_engine_base.cpp:331).
+class AdmissionHandler {
+public:
+  AdmissionHandler(void* context, const std::string& token, std::string endpoint)
+      : password_(plainPassword(token)), endpoint_(std::move(endpoint)) {
+    socket_ = zmq_socket(context, ZMQ_REP);
+    if (socket_ == nullptr) throw Error(zmqError("creating the admission handler for", endpoint_));
+    const int linger = 0;
+    zmq_setsockopt(socket_, ZMQ_LINGER, &linger, sizeof(linger));
+    if (zmq_bind(socket_, "inproc://zeromq.zap.01") != 0) {
+      const std::string message = zmqError("binding the admission handler for", endpoint_);
+      zmq_close(socket_);
+      throw Error(message);
+    }
+    thread_ = std::thread([this] { serve(); });
+  }
+  ~AdmissionHandler() { stop(); }
+  AdmissionHandler(const AdmissionHandler&) = delete;
+  AdmissionHandler& operator=(const AdmissionHandler&) = delete;
+
+  void stop() {
+    stopping_ = true;
+    if (thread_.joinable()) thread_.join();
+    if (socket_ != nullptr) {
+      zmq_close(socket_);
+      socket_ = nullptr;
+    }
+  }
+  int refused() const { return refused_.load(); }
+
+private:
+  void serve() {
+    while (!stopping_) {
+      zmq_pollitem_t item{socket_, 0, ZMQ_POLLIN, 0};
+      if (zmq_poll(&item, 1, 50) <= 0 || !(item.revents & ZMQ_POLLIN)) continue;
+      const std::vector<std::string> request = receiveParts(socket_);
+      // version, request id, domain, address, routing id, mechanism, credentials (PLAIN: user, password)
+      if (request.size() < 2) continue;
+      std::string reason;
+      if (request.size() != 8 || request[0] != "1.0" || request[5] != "PLAIN" || request[6] != participantUser) {
+        reason = "not a railcosim participant";
+      } else if (!sameSecret(request[7], password_)) {
+        reason = "wrong run token";
+      } else if (!sameUserOrNotIpc(request[3])) {
+        reason = "process of another user";
+      } else if (admitted_) {
+        reason = "a participant already joined this run";
+      }
+      const bool admit = reason.empty();
+      if (admit) {
+        admitted_ = true;
+      } else {
+        ++refused_;
+        log(LogLevel::Warning, "bridge transport: refused a connection on " + endpoint_ + " (" + reason + ")");
+      }
+      const std::string reply[6] = {"1.0", request[1], admit ? "200" : "400", admit ? "OK" : reason, "", ""};
+      for (int i = 0; i < 6; ++i) zmq_send(socket_, reply[i].data(), reply[i].size(), i < 5 ? ZMQ_SNDMORE : 0);
+    }
+  }
+
+  std::string password_;
+  std::string endpoint_;
+  void* socket_ = nullptr;
+  std::thread thread_;
+  std::atomic<bool> stopping_{false};
+  std::atomic<int> refused_{0};
+  bool admitted_ = false;  // touched by the handler thread only
+};
+
+std::string Channel::bindEndpoint(const std::string& endpoint, bool haveToken) {
+  const std::string prefix = "tcp://";
+  if (endpoint.rfind(prefix, 0) != 0) return endpoint;
+  const std::size_t colon = endpoint.rfind(':');
+  const std::string host = colon > prefix.size() ? endpoint.substr(prefix.size(), colon - prefix.size()) : "";
+  if (host == "*" || host.empty()) return prefix + "127.0.0.1" + endpoint.substr(colon);
+  const bool loopback = host == "localhost" || host == "[::1]" || host == "::1" || host.rfind("127.", 0) == 0 ||
+                        host == "lo";
+  if (!loopback && !haveToken) {
+    throw Error("binding '" + endpoint + "' would accept participants from the network without a run token; "
+                "set RAILCOSIM_BRIDGE_TOKEN (the same secret on both sides) or bind tcp://127.0.0.1:PORT");
+  }
+  return endpoint;
+}
 
 struct Frame::Impl {
   zmq_msg_t message;
@@ -89,9 +223,39 @@ struct Channel::Impl {
   void* context = nullptr;
   void* socket = nullptr;
   void* monitor = nullptr;
-  std::set<int> peerConnections;  // file descriptors of established transport connections
+  std::unique_ptr<AdmissionHandler> admission;  // binding side only
+  std::set<int> openConnections;  // file descriptors of transport connections not yet dropped
+  int peerConnection = -1;        // binding side: the connection the peer's first message came from
   bool seen = false;
   bool disconnected = false;
+  bool refused = false;           // connecting side: the binding side refused our credentials
+  // One thread at a time uses the socket: the owner for a whole send/receive call, the keepalive thread
+  // only in between (try_lock), so ZeroMQ's single-thread rule holds and the owner never waits for it.
+  std::mutex socketMutex;
+  Clock::time_point lastSent = Clock::now();   // guarded by socketMutex
+  Clock::time_point lastHeard = Clock::now();  // owner only
+  std::thread keepalive;
+  std::mutex keepaliveMutex;
+  std::condition_variable keepaliveWake;
+  bool keepaliveStop = false;  // guarded by keepaliveMutex
+
+  Clock::duration interval() const {
+    return std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(options.heartbeatSeconds));
+  }
+  /// An empty frame (no protocol message is empty) when an interval passed without sending anything.
+  void sendKeepaliveIfDue() {
+    const auto now = Clock::now();
+    if (now - lastSent < interval()) return;
+    zmq_send(socket, nullptr, 0, ZMQ_DONTWAIT);  // best effort: a full queue already keeps the peer informed
+    lastSent = now;
+  }
+  void runKeepalive() {
+    std::unique_lock<std::mutex> wait(keepaliveMutex);
+    while (!keepaliveWake.wait_for(wait, interval() / 4, [this] { return keepaliveStop; })) {
+      std::unique_lock<std::mutex> use(socketMutex, std::try_to_lock);
+      if (use.owns_lock() && socket != nullptr) sendKeepaliveIfDue();
+    }
+  }
   std::shared_ptr<BufferPool> pool = std::make_shared<BufferPool>();
 };
 
@@ -111,12 +275,32 @@ Channel::Channel(ChannelOptions options) : impl_(std::make_unique<Impl>()) {
   try {
     impl_->socket = zmq_socket(impl_->context, ZMQ_PAIR);
     if (impl_->socket == nullptr) throw Error(zmqError("creating the socket for", endpoint));
-    // Heartbeats: a peer that stops answering (frozen, network gone) is dropped after ~3 intervals.
-    const int heartbeat = std::max(1, static_cast<int>(impl_->options.heartbeatSeconds * 1000.0));
-    setIntOption(impl_->socket, ZMQ_HEARTBEAT_IVL, heartbeat, "ZMQ_HEARTBEAT_IVL");
-    setIntOption(impl_->socket, ZMQ_HEARTBEAT_TIMEOUT, 3 * heartbeat, "ZMQ_HEARTBEAT_TIMEOUT");
-    setIntOption(impl_->socket, ZMQ_HEARTBEAT_TTL, std::min(3 * heartbeat, 6553500), "ZMQ_HEARTBEAT_TTL");
+    // No ZMQ_HEARTBEAT_*: in libzmq 4.3.4 the heartbeat timer calls out_event() on a connection whose
+    // input already failed (a peer that sent while this socket closed, then hung up) and aborts the
+    // process (stream_engine_base.cpp:331). The keepalive below does the same job without that path.
     setIntOption(impl_->socket, ZMQ_LINGER, impl_->options.lingerMilliseconds, "ZMQ_LINGER");
+    if (impl_->options.token.size() > 255) {
+      throw Error("bridge transport: the run token has " + std::to_string(impl_->options.token.size()) +
+                  " bytes; at most 255 are allowed (ZeroMQ PLAIN password)");
+    }
+    if (impl_->options.maxMessageBytes > 0) {
+      const std::int64_t limit = static_cast<std::int64_t>(impl_->options.maxMessageBytes);
+      if (zmq_setsockopt(impl_->socket, ZMQ_MAXMSGSIZE, &limit, sizeof(limit)) != 0) {
+        throw Error(zmqError("limiting the message size on", endpoint));
+      }
+    }
+    // Every connection authenticates (PLAIN, user railcosim, the run token as password): the binding
+    // side's admission handler decides before the connection can deliver anything.
+    if (impl_->options.side == Side::Bind) {
+      impl_->admission = std::make_unique<AdmissionHandler>(impl_->context, impl_->options.token, endpoint);
+      setIntOption(impl_->socket, ZMQ_PLAIN_SERVER, 1, "ZMQ_PLAIN_SERVER");
+      const std::string domain = "railcosim";
+      zmq_setsockopt(impl_->socket, ZMQ_ZAP_DOMAIN, domain.data(), domain.size());
+    } else {
+      zmq_setsockopt(impl_->socket, ZMQ_PLAIN_USERNAME, participantUser, std::strlen(participantUser));
+      const std::string password = plainPassword(impl_->options.token);
+      zmq_setsockopt(impl_->socket, ZMQ_PLAIN_PASSWORD, password.data(), password.size());
+    }
     // Sends never block inside ZeroMQ: the deadline loop in send() does the waiting.
     setIntOption(impl_->socket, ZMQ_SNDTIMEO, 0, "ZMQ_SNDTIMEO");
 
@@ -124,7 +308,7 @@ Channel::Channel(ChannelOptions options) : impl_(std::make_unique<Impl>()) {
     monitorName << "inproc://railcosim-monitor-" << monitorCounter.fetch_add(1) << "-" << this;
     const int events = ZMQ_EVENT_CONNECTED | ZMQ_EVENT_ACCEPTED | ZMQ_EVENT_DISCONNECTED |
                        ZMQ_EVENT_HANDSHAKE_SUCCEEDED | ZMQ_EVENT_HANDSHAKE_FAILED_PROTOCOL |
-                       ZMQ_EVENT_HANDSHAKE_FAILED_NO_DETAIL;
+                       ZMQ_EVENT_HANDSHAKE_FAILED_NO_DETAIL | ZMQ_EVENT_HANDSHAKE_FAILED_AUTH;
     if (zmq_socket_monitor(impl_->socket, monitorName.str().c_str(), events) != 0) {
       throw Error(zmqError("starting the connection monitor for", endpoint));
     }
@@ -135,7 +319,8 @@ Channel::Channel(ChannelOptions options) : impl_(std::make_unique<Impl>()) {
     setIntOption(impl_->monitor, ZMQ_LINGER, 0, "ZMQ_LINGER");
 
     if (impl_->options.side == Side::Bind) {
-      if (zmq_bind(impl_->socket, endpoint.c_str()) != 0) {
+      impl_->options.endpoint = bindEndpoint(endpoint, !impl_->options.token.empty());
+      if (zmq_bind(impl_->socket, impl_->options.endpoint.c_str()) != 0) {
         const int code = zmq_errno();
         std::ostringstream text;
         text << "binding endpoint '" << endpoint << "' failed: " << zmq_strerror(code);
@@ -148,6 +333,8 @@ Channel::Channel(ChannelOptions options) : impl_(std::make_unique<Impl>()) {
         throw Error(zmqError("connecting to endpoint", endpoint) + "; check the endpoint syntax");
       }
     }
+    if (!(impl_->options.heartbeatSeconds > 0.0)) throw Error("bridge transport: heartbeatSeconds must be positive");
+    impl_->keepalive = std::thread([impl = impl_.get()] { impl->runKeepalive(); });
   } catch (...) {
     close();
     throw;
@@ -157,6 +344,15 @@ Channel::Channel(ChannelOptions options) : impl_(std::make_unique<Impl>()) {
 Channel::~Channel() { close(); }
 
 void Channel::close() {
+  if (impl_->keepalive.joinable()) {
+    {
+      std::lock_guard<std::mutex> lock(impl_->keepaliveMutex);
+      impl_->keepaliveStop = true;
+    }
+    impl_->keepaliveWake.notify_all();
+    impl_->keepalive.join();
+  }
+  if (impl_->admission) impl_->admission->stop();
   if (impl_->socket != nullptr) {
     zmq_socket_monitor(impl_->socket, nullptr, 0);
     zmq_close(impl_->socket);
@@ -171,20 +367,25 @@ void Channel::close() {
     while (zmq_ctx_term(impl_->context) != 0 && zmq_errno() == EINTR) {
     }
     impl_->context = nullptr;
+    impl_->admission.reset();
     removeIpcFile(impl_->options);
   }
 }
 
 const std::string& Channel::endpoint() const { return impl_->options.endpoint; }
 bool Channel::peerSeen() {
+  std::lock_guard<std::mutex> lock(impl_->socketMutex);
   drainMonitor();
   return impl_->seen;
 }
 
 bool Channel::peerDisconnected() {
+  std::lock_guard<std::mutex> lock(impl_->socketMutex);
   drainMonitor();
   return impl_->disconnected;
 }
+
+int Channel::refusedConnections() { return impl_->admission ? impl_->admission->refused() : 0; }
 
 void Channel::drainMonitor() {
   if (impl_->monitor == nullptr) return;
@@ -213,22 +414,29 @@ void Channel::drainMonitor() {
     switch (event) {
     case ZMQ_EVENT_CONNECTED:
     case ZMQ_EVENT_ACCEPTED:
-      impl_->peerConnections.insert(connection);
+      impl_->openConnections.insert(connection);
       break;
     case ZMQ_EVENT_HANDSHAKE_SUCCEEDED:
+      // Binding side: only the admitted connection gets here (the admission handler lets one in).
       impl_->seen = true;
       log(LogLevel::Debug, "bridge transport: peer connected on " + impl_->options.endpoint);
       break;
     case ZMQ_EVENT_DISCONNECTED:
-      // Only a connection that completed its handshake counts as the peer; a connect attempt that
-      // failed before that (peer not started yet) is retried by ZeroMQ.
-      if (impl_->peerConnections.erase(connection) > 0 && impl_->seen) impl_->disconnected = true;
+      impl_->openConnections.erase(connection);
+      // Binding side: only the connection the peer's messages came from counts, so refused or stray
+      // connections that close never end a run. Connecting side: its one connection is the peer's.
+      if (impl_->options.side == Side::Bind ? connection == impl_->peerConnection : impl_->seen) {
+        impl_->disconnected = true;
+      }
       log(LogLevel::Debug, "bridge transport: connection dropped on " + impl_->options.endpoint);
+      break;
+    case ZMQ_EVENT_HANDSHAKE_FAILED_AUTH:
+      if (impl_->options.side == Side::Connect) impl_->refused = true;
       break;
     case ZMQ_EVENT_HANDSHAKE_FAILED_PROTOCOL:
     case ZMQ_EVENT_HANDSHAKE_FAILED_NO_DETAIL:
-      log(LogLevel::Warning, "bridge transport: a client on " + impl_->options.endpoint +
-                                 " failed the ZeroMQ handshake (not a railcosim participant?)");
+      log(LogLevel::Debug, "bridge transport: a connection on " + impl_->options.endpoint +
+                               " failed the ZeroMQ handshake (not a railcosim participant?)");
       break;
     default:
       break;
@@ -238,6 +446,7 @@ void Channel::drainMonitor() {
 
 Status Channel::send(std::vector<std::uint8_t>&& bytes, double timeoutSeconds, Timing& timing) {
   if (impl_->socket == nullptr) throw Error("bridge transport: send on a closed channel to " + impl_->options.endpoint);
+  std::lock_guard<std::mutex> lock(impl_->socketMutex);
   const auto start = Clock::now();
   const auto deadline = start + std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(timeoutSeconds));
   auto* owned = new SentBuffer{std::move(bytes), impl_->pool};
@@ -248,13 +457,14 @@ Status Channel::send(std::vector<std::uint8_t>&& bytes, double timeoutSeconds, T
   }
   while (true) {
     drainMonitor();
-    if (impl_->disconnected) {
+    if (impl_->disconnected || impl_->refused) {
       zmq_msg_close(&message);
       timing.waitSeconds += secondsSince(start);
-      return Status::PeerDisconnected;
+      return impl_->disconnected ? Status::PeerDisconnected : Status::Refused;
     }
     const auto attempt = Clock::now();
     if (zmq_msg_send(&message, impl_->socket, ZMQ_DONTWAIT) >= 0) {
+      impl_->lastSent = Clock::now();
       timing.transferSeconds += secondsSince(attempt);
       timing.waitSeconds += std::chrono::duration<double>(attempt - start).count();
       return Status::Ok;  // ZeroMQ owns and frees the message now
@@ -279,13 +489,26 @@ Status Channel::receive(Frame& frame, double timeoutSeconds, Timing& timing) {
   if (impl_->socket == nullptr) {
     throw Error("bridge transport: receive on a closed channel to " + impl_->options.endpoint);
   }
+  std::lock_guard<std::mutex> lock(impl_->socketMutex);
   const auto start = Clock::now();
   const auto deadline = start + std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(timeoutSeconds));
   auto tryReceive = [&]() {
     const auto attempt = Clock::now();
-    if (zmq_msg_recv(&frame.impl_->message, impl_->socket, ZMQ_DONTWAIT) < 0) {
-      if (zmq_errno() == EAGAIN || zmq_errno() == EINTR) return false;
-      throw Error(zmqError("receiving on", impl_->options.endpoint));
+    while (true) {
+      if (zmq_msg_recv(&frame.impl_->message, impl_->socket, ZMQ_DONTWAIT) < 0) {
+        if (zmq_errno() == EAGAIN || zmq_errno() == EINTR) return false;
+        throw Error(zmqError("receiving on", impl_->options.endpoint));
+      }
+      impl_->lastHeard = Clock::now();
+      if (impl_->options.side == Side::Bind && impl_->peerConnection < 0) {
+        // Only the admitted connection has a pipe, so the first frame names the peer's connection. Events
+        // of connections closed before it opened are queued ahead of its own: reading them first means a
+        // reused file descriptor number is never mistaken for the peer's.
+        drainMonitor();
+        impl_->peerConnection = zmq_msg_get(&frame.impl_->message, ZMQ_SRCFD);
+      }
+      if (zmq_msg_size(&frame.impl_->message) != 0 || zmq_msg_more(&frame.impl_->message)) break;
+      // A keepalive: the peer is alive; not a message for the caller.
     }
     timing.transferSeconds += secondsSince(attempt);
     timing.waitSeconds += std::chrono::duration<double>(attempt - start).count();
@@ -312,7 +535,19 @@ Status Channel::receive(Frame& frame, double timeoutSeconds, Timing& timing) {
       timing.waitSeconds += secondsSince(start);
       return Status::PeerDisconnected;
     }
+    if (impl_->refused) {
+      timing.waitSeconds += secondsSince(start);
+      return Status::Refused;
+    }
+    impl_->sendKeepaliveIfDue();  // this side waits: its keepalive thread is locked out, so it speaks here
     const auto now = Clock::now();
+    // Silence counts from this call's start at the earliest: frames queued while the caller computed were
+    // read above, so a live peer has always been heard within the last interval or so.
+    const bool peerKnown = impl_->options.side == Side::Bind ? impl_->peerConnection >= 0 : impl_->seen;
+    if (peerKnown && now - std::max(impl_->lastHeard, start) > 3 * impl_->interval()) {
+      timing.waitSeconds += secondsSince(start);
+      return Status::PeerSilent;
+    }
     if (now >= deadline) {
       timing.waitSeconds += secondsSince(start);
       return Status::Timeout;

@@ -21,6 +21,11 @@ constexpr std::size_t headerBytes = 56;
 constexpr std::uint64_t maxNodes = 100'000'000;
 constexpr std::uint64_t maxTriangles = 200'000'000;
 constexpr std::size_t maxTextBytes = 65'536;
+/// The largest message these limits allow (an InterfaceMesh of maxNodes nodes and maxTriangles triangles
+/// with velocities and accelerations): the transport drops a connection that announces more.
+constexpr std::uint64_t maxMessageBytes =
+    headerBytes + sizeof(double) + maxNodes * 3 * sizeof(double) + maxTriangles * 3 * sizeof(std::int32_t) +
+    3 * maxNodes * 3 * sizeof(double);
 
 enum class MessageType : std::uint16_t {
   Hello = 1,

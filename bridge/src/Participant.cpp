@@ -77,6 +77,10 @@ public:
     } catch (const Error& error) {
       throw Error(self() + ": " + error.what());
     }
+    if (role_ == protocol::Role::Fem) {
+      config_.endpoint = channel_->endpoint();  // as bound: a '*' host or port resolved
+      log(LogLevel::Info, self() + ": listening on " + config_.endpoint);
+    }
   }
 
   void requireUsable(const char* call) const {

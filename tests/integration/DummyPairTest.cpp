@@ -2,141 +2,81 @@
 #define BOOST_TEST_MODULE integration_dummies
 #include <boost/test/unit_test.hpp>
 
-#include <arpa/inet.h>
-#include <csignal>
-#include <fcntl.h>
-#include <memory>
-#include <fstream>
-#include <netinet/in.h>
-#include <spawn.h>
-#include <sstream>
-#include <sys/socket.h>
-#include <sys/wait.h>
-#include <thread>
-#include <unistd.h>
+#include "ProcessHarness.hpp"
 
-#include <atomic>
-#include <chrono>
+#include <cstdlib>
+#include <memory>
 #include <string>
 #include <vector>
 
-extern char** environ;
-
 namespace {
 
+using railcosim::test::contains;
+using railcosim::test::Process;
+using railcosim::test::sleepSeconds;
+using railcosim::test::uniqueName;
 using Clock = std::chrono::steady_clock;
 
-std::string uniqueName() {
-  static std::atomic<int> counter{0};
-  return "railcosim-it-" + std::to_string(getpid()) + "-" + std::to_string(counter++);
-}
+using railcosim::test::announcedEndpoint;
+using railcosim::test::ReservedPort;
 
-std::string ipcEndpoint() { return "ipc:///tmp/" + uniqueName() + ".sock"; }
+/// The FEM dummy announces its bound endpoint at level info; every test reads it from there.
+struct InfoLogging {
+  InfoLogging() { setenv("RAILCOSIM_LOG", "info", 1); }
+};
+BOOST_TEST_GLOBAL_FIXTURE(InfoLogging);
 
-/// A free loopback port: bind port 0, read it back, release it (another test could race for it,
-/// but each ctest process asks the kernel, which hands out ports round-robin).
-std::string tcpEndpoint() {
-  const int probe = socket(AF_INET, SOCK_STREAM, 0);
-  sockaddr_in address{};
-  address.sin_family = AF_INET;
-  address.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
-  address.sin_port = 0;
-  BOOST_REQUIRE(bind(probe, reinterpret_cast<sockaddr*>(&address), sizeof(address)) == 0);
-  socklen_t length = sizeof(address);
-  getsockname(probe, reinterpret_cast<sockaddr*>(&address), &length);
-  close(probe);
-  return "tcp://127.0.0.1:" + std::to_string(ntohs(address.sin_port));
-}
+enum class Transport { Ipc, Tcp };
 
-/// A dummy process with stdout and stderr captured in files.
-class Process {
-public:
-  Process(const std::string& program, std::vector<std::string> arguments) {
-    const std::string base = "/tmp/" + uniqueName();
-    outPath_ = base + ".out";
-    errPath_ = base + ".err";
-    posix_spawn_file_actions_t actions;
-    posix_spawn_file_actions_init(&actions);
-    posix_spawn_file_actions_addopen(&actions, 1, outPath_.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
-    posix_spawn_file_actions_addopen(&actions, 2, errPath_.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
-    arguments.insert(arguments.begin(), program);
-    std::vector<char*> argv;
-    for (auto& argument : arguments) argv.push_back(argument.data());
-    argv.push_back(nullptr);
-    const int status = posix_spawn(&pid_, program.c_str(), &actions, nullptr, argv.data(), environ);
-    posix_spawn_file_actions_destroy(&actions);
-    BOOST_REQUIRE_MESSAGE(status == 0, "cannot start " << program);
-  }
-  ~Process() {
-    if (running()) {
-      kill(pid_, SIGKILL);
-      waitpid(pid_, nullptr, 0);
-    }
-    unlink(outPath_.c_str());
-    unlink(errPath_.c_str());
-  }
-  bool running() const { return !finished_; }
-  void signal(int number) { kill(pid_, number); }
-  /// Waits at most `seconds`; returns the exit code, or -1 if still running (then fails the test).
-  int wait(double seconds) {
-    const auto deadline = Clock::now() + std::chrono::duration<double>(seconds);
-    while (!finished_) {
-      int status = 0;
-      const pid_t done = waitpid(pid_, &status, WNOHANG);
-      if (done == pid_) {
-        finished_ = true;
-        exitCode_ = WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);
-        break;
-      }
-      if (Clock::now() > deadline) {
-        BOOST_ERROR("process did not end within " << seconds << " s; stderr: " << errors());
-        return -1;
-      }
-      std::this_thread::sleep_for(std::chrono::milliseconds(10));
-    }
-    return exitCode_;
-  }
-  std::string output() const { return read(outPath_); }
-  std::string errors() const { return read(errPath_); }
-
-private:
-  static std::string read(const std::string& path) {
-    std::ifstream file(path);
-    std::stringstream text;
-    text << file.rdbuf();
-    return text.str();
-  }
-  pid_t pid_ = 0;
-  bool finished_ = false;
-  int exitCode_ = -1;
-  std::string outPath_, errPath_;
+/// Both dummies on a fresh endpoint, in the order asked. ipc: a unique socket file. tcp, FEM first: the
+/// FEM binds port '*' (the kernel picks a free one) and the DEM connects to the announced endpoint;
+/// tcp, DEM first: a port reserved until the FEM has bound it. No two tests can meet on one endpoint.
+struct Pair {
+  std::unique_ptr<Process> fem, dem;
+  std::string endpoint;
 };
 
-bool contains(const std::string& text, const std::string& fragment) {
-  const bool found = text.find(fragment) != std::string::npos;
-  if (!found) BOOST_TEST_MESSAGE("'" << fragment << "' not in: " << text);
-  return found;
+Pair startPair(Transport transport, std::vector<std::string> femArguments, std::vector<std::string> demArguments,
+               bool femFirst = true) {
+  Pair pair;
+  auto withEndpoint = [](std::vector<std::string> arguments, const std::string& endpoint) {
+    arguments.insert(arguments.begin(), {"--endpoint", endpoint});
+    return arguments;
+  };
+  if (transport == Transport::Ipc) {
+    pair.endpoint = "ipc:///tmp/" + uniqueName() + ".sock";
+    if (femFirst) {
+      pair.fem = std::make_unique<Process>(RAILCOSIM_DUMMY_FEM, withEndpoint(femArguments, pair.endpoint));
+      sleepSeconds(0.3);
+      pair.dem = std::make_unique<Process>(RAILCOSIM_DUMMY_DEM, withEndpoint(demArguments, pair.endpoint));
+    } else {
+      pair.dem = std::make_unique<Process>(RAILCOSIM_DUMMY_DEM, withEndpoint(demArguments, pair.endpoint));
+      sleepSeconds(0.3);
+      pair.fem = std::make_unique<Process>(RAILCOSIM_DUMMY_FEM, withEndpoint(femArguments, pair.endpoint));
+    }
+  } else if (femFirst) {
+    pair.fem = std::make_unique<Process>(RAILCOSIM_DUMMY_FEM, withEndpoint(femArguments, "tcp://127.0.0.1:*"));
+    pair.endpoint = announcedEndpoint(*pair.fem);
+    BOOST_REQUIRE(!pair.endpoint.empty());
+    pair.dem = std::make_unique<Process>(RAILCOSIM_DUMMY_DEM, withEndpoint(demArguments, pair.endpoint));
+  } else {
+    ReservedPort port;
+    pair.endpoint = port.endpoint();
+    pair.dem = std::make_unique<Process>(RAILCOSIM_DUMMY_DEM, withEndpoint(demArguments, pair.endpoint));
+    sleepSeconds(0.3);
+    pair.fem = std::make_unique<Process>(RAILCOSIM_DUMMY_FEM, withEndpoint(femArguments, pair.endpoint));
+    BOOST_REQUIRE(announcedEndpoint(*pair.fem) == pair.endpoint);
+  }
+  return pair;
 }
-
-void sleepSeconds(double seconds) { std::this_thread::sleep_for(std::chrono::duration<double>(seconds)); }
 
 /// A full run: both dummies exit 0; the DEM dummy compares every window's kinematics with the
 /// closed-form spring-mass response (it exits 1 if any value is off by more than 1e-9 relative).
-void runPair(const std::string& endpoint, const std::string& scheme, bool femFirst, int windows) {
-  const std::vector<std::string> femArguments{"--endpoint", endpoint, "--timeout", "20", "--scheme", scheme,
-                                              "--nodes", "400"};
-  const std::vector<std::string> demArguments{"--endpoint", endpoint, "--timeout", "20", "--scheme", scheme,
-                                              "--windows", std::to_string(windows)};
-  std::unique_ptr<Process> fem, dem;
-  if (femFirst) {
-    fem = std::make_unique<Process>(RAILCOSIM_DUMMY_FEM, femArguments);
-    sleepSeconds(0.3);
-    dem = std::make_unique<Process>(RAILCOSIM_DUMMY_DEM, demArguments);
-  } else {
-    dem = std::make_unique<Process>(RAILCOSIM_DUMMY_DEM, demArguments);
-    sleepSeconds(0.3);
-    fem = std::make_unique<Process>(RAILCOSIM_DUMMY_FEM, femArguments);
-  }
+void runPair(Transport transport, const std::string& scheme, bool femFirst, int windows) {
+  Pair pair = startPair(transport, {"--timeout", "20", "--scheme", scheme, "--nodes", "400"},
+                        {"--timeout", "20", "--scheme", scheme, "--windows", std::to_string(windows)}, femFirst);
+  auto& fem = pair.fem;
+  auto& dem = pair.dem;
   const int demExit = dem->wait(60);
   const int femExit = fem->wait(10);
   BOOST_TEST(demExit == 0, "DEM dummy exit " << demExit << ", stderr: " << dem->errors());
@@ -149,18 +89,18 @@ void runPair(const std::string& endpoint, const std::string& scheme, bool femFir
 
 } // namespace
 
-BOOST_AUTO_TEST_CASE(ipc_just_in_time_fem_first) { runPair(ipcEndpoint(), "justInTime", true, 300); }
-BOOST_AUTO_TEST_CASE(ipc_just_in_time_dem_first) { runPair(ipcEndpoint(), "justInTime", false, 300); }
-BOOST_AUTO_TEST_CASE(tcp_just_in_time_fem_first) { runPair(tcpEndpoint(), "justInTime", true, 300); }
-BOOST_AUTO_TEST_CASE(tcp_just_in_time_dem_first) { runPair(tcpEndpoint(), "justInTime", false, 300); }
-BOOST_AUTO_TEST_CASE(ipc_predictive_dem_first) { runPair(ipcEndpoint(), "predictive", false, 300); }
-BOOST_AUTO_TEST_CASE(tcp_predictive_fem_first) { runPair(tcpEndpoint(), "predictive", true, 300); }
+BOOST_AUTO_TEST_CASE(ipc_just_in_time_fem_first) { runPair(Transport::Ipc, "justInTime", true, 300); }
+BOOST_AUTO_TEST_CASE(ipc_just_in_time_dem_first) { runPair(Transport::Ipc, "justInTime", false, 300); }
+BOOST_AUTO_TEST_CASE(tcp_just_in_time_fem_first) { runPair(Transport::Tcp, "justInTime", true, 300); }
+BOOST_AUTO_TEST_CASE(tcp_just_in_time_dem_first) { runPair(Transport::Tcp, "justInTime", false, 300); }
+BOOST_AUTO_TEST_CASE(ipc_predictive_dem_first) { runPair(Transport::Ipc, "predictive", false, 300); }
+BOOST_AUTO_TEST_CASE(tcp_predictive_fem_first) { runPair(Transport::Tcp, "predictive", true, 300); }
 
 /// Implicit scheme with the particles acting as a stiff spring bed on the surface: the DEM dummy
 /// compares every accepted window with the monolithic solution of the same coupled system (it exits 1
 /// beyond 100 x the convergence tolerance). Returns the DEM dummy's summary line.
 std::string runImplicit(const std::string& contactStiffness, const std::vector<std::string>& iterationOptions, int expectedExit) {
-  const std::string endpoint = ipcEndpoint();
+  const std::string endpoint = "ipc:///tmp/" + uniqueName() + ".sock";
   Process fem(RAILCOSIM_DUMMY_FEM, {"--endpoint", endpoint, "--timeout", "20", "--scheme", "implicit", "--nodes", "16"});
   std::vector<std::string> demArguments{"--endpoint", endpoint, "--timeout", "20", "--scheme", "implicit", "--windows", "500",
                                         "--contact-stiffness", contactStiffness};
@@ -194,10 +134,12 @@ BOOST_AUTO_TEST_CASE(implicit_without_relaxation_diverges_on_a_stiff_bed_and_say
 }
 
 /// Kills one side with SIGKILL mid-run; the survivor must exit 2 with a clear message in < 10 s.
-void killMidRun(const std::string& endpoint, bool killDem) {
-  Process fem(RAILCOSIM_DUMMY_FEM, {"--endpoint", endpoint, "--timeout", "60", "--compute-ms", "2"});
-  Process dem(RAILCOSIM_DUMMY_DEM, {"--endpoint", endpoint, "--timeout", "60", "--windows", "1000000",
-                                    "--compute-ms", "2"});
+void killMidRun(Transport transport, bool killDem) {
+  Pair pair = startPair(transport, {"--timeout", "60", "--compute-ms", "2"},
+                        {"--timeout", "60", "--windows", "1000000", "--compute-ms", "2"});
+  Process& fem = *pair.fem;
+  Process& dem = *pair.dem;
+  const std::string endpoint = pair.endpoint;
   sleepSeconds(1.0);
   BOOST_REQUIRE(fem.running() && dem.running());
   Process& victim = killDem ? dem : fem;
@@ -216,15 +158,15 @@ void killMidRun(const std::string& endpoint, bool killDem) {
   BOOST_TEST(contains(message, "window"));
 }
 
-BOOST_AUTO_TEST_CASE(killed_dem_is_reported_by_the_fem_over_ipc) { killMidRun(ipcEndpoint(), true); }
-BOOST_AUTO_TEST_CASE(killed_fem_is_reported_by_the_dem_over_tcp) { killMidRun(tcpEndpoint(), false); }
+BOOST_AUTO_TEST_CASE(killed_dem_is_reported_by_the_fem_over_ipc) { killMidRun(Transport::Ipc, true); }
+BOOST_AUTO_TEST_CASE(killed_fem_is_reported_by_the_dem_over_tcp) { killMidRun(Transport::Tcp, false); }
 
 BOOST_AUTO_TEST_CASE(frozen_fem_is_detected_by_keepalive) {
   // SIGSTOP keeps the sockets open, so only the keepalive can tell: 0.3 s interval, silent after 0.9 s.
-  const std::string endpoint = tcpEndpoint();
-  Process fem(RAILCOSIM_DUMMY_FEM, {"--endpoint", endpoint, "--timeout", "60", "--heartbeat", "0.3"});
-  Process dem(RAILCOSIM_DUMMY_DEM, {"--endpoint", endpoint, "--timeout", "60", "--heartbeat", "0.3", "--windows",
-                                    "1000000", "--compute-ms", "2"});
+  Pair pair = startPair(Transport::Tcp, {"--timeout", "60", "--heartbeat", "0.3"},
+                        {"--timeout", "60", "--heartbeat", "0.3", "--windows", "1000000", "--compute-ms", "2"});
+  Process& fem = *pair.fem;
+  Process& dem = *pair.dem;
   sleepSeconds(1.0);
   const auto stopped = Clock::now();
   fem.signal(SIGSTOP);
@@ -238,7 +180,7 @@ BOOST_AUTO_TEST_CASE(frozen_fem_is_detected_by_keepalive) {
 }
 
 BOOST_AUTO_TEST_CASE(fem_ending_early_stops_the_dem_with_a_clear_message) {
-  const std::string endpoint = ipcEndpoint();
+  const std::string endpoint = "ipc:///tmp/" + uniqueName() + ".sock";
   Process fem(RAILCOSIM_DUMMY_FEM, {"--endpoint", endpoint, "--timeout", "20", "--windows", "20"});
   Process dem(RAILCOSIM_DUMMY_DEM, {"--endpoint", endpoint, "--timeout", "20", "--windows", "100"});
   BOOST_TEST(fem.wait(30) == 0);
@@ -248,7 +190,7 @@ BOOST_AUTO_TEST_CASE(fem_ending_early_stops_the_dem_with_a_clear_message) {
 }
 
 BOOST_AUTO_TEST_CASE(missing_fem_times_out_with_advice) {
-  const std::string endpoint = ipcEndpoint();
+  const std::string endpoint = "ipc:///tmp/" + uniqueName() + ".sock";
   const auto start = Clock::now();
   Process dem(RAILCOSIM_DUMMY_DEM, {"--endpoint", endpoint, "--timeout", "1.5"});
   BOOST_TEST(dem.wait(20) == 2);
@@ -260,7 +202,7 @@ BOOST_AUTO_TEST_CASE(missing_fem_times_out_with_advice) {
 }
 
 BOOST_AUTO_TEST_CASE(mismatched_schemes_are_refused_at_the_handshake) {
-  const std::string endpoint = ipcEndpoint();
+  const std::string endpoint = "ipc:///tmp/" + uniqueName() + ".sock";
   Process fem(RAILCOSIM_DUMMY_FEM, {"--endpoint", endpoint, "--timeout", "20", "--scheme", "predictive"});
   Process dem(RAILCOSIM_DUMMY_DEM, {"--endpoint", endpoint, "--timeout", "20", "--windows", "50"});
   BOOST_TEST(fem.wait(30) == 3);  // protocol error

@@ -328,6 +328,13 @@ Channel::Channel(ChannelOptions options) : impl_(std::make_unique<Impl>()) {
         text << "; choose a free endpoint";
         throw Error(text.str());
       }
+      // A wildcard port (tcp://127.0.0.1:*) is chosen by the kernel: keep the endpoint really bound, so it
+      // can be announced to the peer and two runs can never race for one port number.
+      char bound[1024] = {};
+      std::size_t boundSize = sizeof(bound);
+      if (endpoint.rfind("tcp://", 0) == 0 && zmq_getsockopt(impl_->socket, ZMQ_LAST_ENDPOINT, bound, &boundSize) == 0) {
+        impl_->options.endpoint = bound;
+      }
     } else {
       if (zmq_connect(impl_->socket, endpoint.c_str()) != 0) {
         throw Error(zmqError("connecting to endpoint", endpoint) + "; check the endpoint syntax");

@@ -11,8 +11,9 @@
 
 namespace railcosim::protocol {
 
-/// Bumped on any change of the byte layout; both participants must speak the same version.
-constexpr std::uint16_t protocolVersion = 2;
+/// Bumped on any change of the byte layout or the transport; both participants must speak the same version.
+/// 3: PLAIN authentication with the run token and empty keepalive frames (docs/protocol.md §1).
+constexpr std::uint16_t protocolVersion = 3;
 /// Every message starts with these 4 bytes.
 constexpr char magic[4] = {'R', 'C', 'S', 'M'};
 /// Fixed header size in bytes (docs/protocol.md, "Header").

@@ -67,7 +67,7 @@ public:
 		((Real, restitution, 0.5, , "``hierarchy`` model: coefficient of restitution of particle-surface impacts [-], turned into a Hertzian damping ratio."))
 		((long, surfaceContacts, 0, Attr::readonly, "``hierarchy`` model: number of particle-surface contacts at the last step."))
 		((Real, timeout, 60, , "Longest wait for any message of the FEM participant [s] before giving up with an error."))
-		((Real, heartbeat, 1, , "Transport heartbeat interval [s]; a dead or frozen peer is detected within about three intervals."))
+		((Real, heartbeat, 1, , "Keepalive interval [s]: a frozen peer (silent, not even keepalives) is reported after three intervals; a dead one at once."))
 		((int, subcycles, 0, , "DEM steps per coupling window. 0 (default): the smallest count for which femTimeStep/subcycles does not exceed the current :yref:`Omega.dt`. Omega.dt is set to femTimeStep/subcycles at connection."))
 		((bool, averageForces, false, , "Send the time average of the nodal forces over the window's DEM steps instead of those of its last step (impulse-conserving)."))
 		((shared_ptr<Material>, material, , , "Material of the inserted facets (required)."))

@@ -2,19 +2,12 @@
 #define BOOST_TEST_MODULE integration_intrusion
 #include <boost/test/unit_test.hpp>
 
+#include "Intrusions.hpp"
 #include "ProcessHarness.hpp"
 
-#include <sys/un.h>
-#include <zmq.h>
-
-#include <cerrno>
 #include <cstdlib>
-#include <cstring>
 #include <fstream>
-#include <functional>
-#include <random>
 #include <string>
-#include <vector>
 
 namespace {
 
@@ -24,6 +17,7 @@ using railcosim::test::contains;
 using railcosim::test::Process;
 using railcosim::test::sleepSeconds;
 using railcosim::test::uniqueName;
+namespace intrusion = railcosim::test::intrusion;
 
 struct Environment {
   Environment() {
@@ -32,76 +26,6 @@ struct Environment {
   }
 };
 BOOST_TEST_GLOBAL_FIXTURE(Environment);
-
-/// A raw stream socket connected to the endpoint's address (tcp or ipc), as any program could open it.
-int rawConnect(const std::string& endpoint) {
-  if (endpoint.rfind("ipc://", 0) == 0) {
-    const int fd = ::socket(AF_UNIX, SOCK_STREAM, 0);
-    sockaddr_un address{};
-    address.sun_family = AF_UNIX;
-    std::strncpy(address.sun_path, endpoint.c_str() + 6, sizeof(address.sun_path) - 1);
-    BOOST_REQUIRE(::connect(fd, reinterpret_cast<sockaddr*>(&address), sizeof(address)) == 0);
-    return fd;
-  }
-  const int fd = ::socket(AF_INET, SOCK_STREAM, 0);
-  sockaddr_in address{};
-  address.sin_family = AF_INET;
-  address.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
-  address.sin_port = htons(static_cast<std::uint16_t>(std::stoi(endpoint.substr(endpoint.rfind(':') + 1))));
-  BOOST_REQUIRE(::connect(fd, reinterpret_cast<sockaddr*>(&address), sizeof(address)) == 0);
-  return fd;
-}
-
-/// Writes as much of `bytes` as the peer takes (it may hang up early); returns the bytes written.
-std::size_t writeAll(int fd, const std::vector<unsigned char>& bytes) {
-  std::size_t written = 0;
-  while (written < bytes.size()) {
-    const ssize_t n = ::send(fd, bytes.data() + written, bytes.size() - written, MSG_NOSIGNAL);
-    if (n <= 0) break;
-    written += static_cast<std::size_t>(n);
-  }
-  return written;
-}
-
-std::vector<unsigned char> randomBytes(std::size_t count, unsigned seed) {
-  std::mt19937 generator(seed);
-  std::vector<unsigned char> bytes(count);
-  for (auto& byte : bytes) byte = static_cast<unsigned char>(generator());
-  return bytes;
-}
-
-/// The opening a ZeroMQ 3.0 peer sends (signature, version, mechanism NULL), then one long frame header
-/// announcing a 1 TB message.
-std::vector<unsigned char> terabyteAnnouncement() {
-  std::vector<unsigned char> bytes(64, 0);
-  bytes[0] = 0xFF;
-  bytes[9] = 0x7F;
-  bytes[10] = 3;
-  std::memcpy(&bytes[12], "NULL", 4);
-  bytes.push_back(0x02);  // long message frame
-  const std::uint64_t size = 1'000'000'000'000ULL;
-  for (int shift = 56; shift >= 0; shift -= 8) bytes.push_back(static_cast<unsigned char>(size >> shift));
-  return bytes;
-}
-
-/// A ZeroMQ PAIR peer that connects, sends one message and closes: the second-peer case that aborted
-/// libzmq 4.3.4 (stream_engine_base.cpp:331) with heartbeats on. `password` empty: NULL mechanism.
-void zeromqPeerSendsAndCloses(const std::string& endpoint, const std::string& password) {
-  void* context = zmq_ctx_new();
-  void* socket = zmq_socket(context, ZMQ_PAIR);
-  if (!password.empty()) {
-    zmq_setsockopt(socket, ZMQ_PLAIN_USERNAME, "railcosim", 9);
-    zmq_setsockopt(socket, ZMQ_PLAIN_PASSWORD, password.data(), password.size());
-  }
-  const int linger = 200;
-  zmq_setsockopt(socket, ZMQ_LINGER, &linger, sizeof(linger));
-  BOOST_REQUIRE(zmq_connect(socket, endpoint.c_str()) == 0);
-  const std::vector<unsigned char> message = randomBytes(100, 7);
-  zmq_send(socket, message.data(), message.size(), ZMQ_DONTWAIT);
-  sleepSeconds(0.3);  // long enough for the handshake and the refusal
-  zmq_close(socket);
-  zmq_ctx_term(context);
-}
 
 long residentHighWaterKiB(pid_t pid) {
   std::ifstream status("/proc/" + std::to_string(pid) + "/status");
@@ -126,19 +50,11 @@ void survivesIntrusions(bool overIpc) {
   const long residentBefore = residentHighWaterKiB(fem.pid());
 
   const auto start = Clock::now();
-  ::close(rawConnect(endpoint));
-  int fd = rawConnect(endpoint);
-  writeAll(fd, randomBytes(4096, 1));
-  ::close(fd);
-  fd = rawConnect(endpoint);
-  writeAll(fd, terabyteAnnouncement());
-  sleepSeconds(0.1);
-  ::close(fd);
-  fd = rawConnect(endpoint);
-  const std::size_t junkTaken = writeAll(fd, randomBytes(200'000'000, 2));
-  ::close(fd);
-  zeromqPeerSendsAndCloses(endpoint, "");
-  zeromqPeerSendsAndCloses(endpoint, "not-the-run-token");
+  std::size_t junkTaken = 0;
+  for (const auto& attack : intrusion::all()) {
+    const std::size_t taken = attack.run(endpoint);
+    if (attack.name == "junk") junkTaken = taken;
+  }
   Process intruder(RAILCOSIM_DUMMY_DEM, {"--endpoint", endpoint, "--timeout", "10", "--windows", "5"});
   const int intruderExit = intruder.wait(20);
   const double attackSeconds = std::chrono::duration<double>(Clock::now() - start).count();

@@ -5,6 +5,8 @@
 #include "Intrusions.hpp"
 #include "ProcessHarness.hpp"
 
+#include <sys/stat.h>
+
 #include <cstdlib>
 #include <fstream>
 #include <string>
@@ -116,4 +118,36 @@ BOOST_AUTO_TEST_CASE(star_host_binds_loopback_only) {
   Process fem(RAILCOSIM_DUMMY_FEM, {"--endpoint", "tcp://*:*", "--timeout", "5"});
   const std::string endpoint = announcedEndpoint(fem);
   BOOST_TEST(contains(endpoint, "tcp://127.0.0.1:"));
+}
+
+BOOST_AUTO_TEST_CASE(ipc_participant_of_another_user_is_refused) {
+  // The socket file is made writable for everybody (umask 0), so only the admission handler's user check
+  // (SO_PEERCRED) stands between a process of another user and the run. Needs root to start that process.
+  if (::geteuid() != 0) {
+    BOOST_TEST_MESSAGE("skipped: needs root to run a participant as user nobody");
+    return;
+  }
+  // nobody may not reach the build tree (a checkout under /root): run a copy from a world-readable folder.
+  const std::string folder = "/tmp/" + uniqueName();
+  BOOST_REQUIRE(::mkdir(folder.c_str(), 0755) == 0);
+  const std::string dem = folder + "/railcosim_dummy_dem";
+  {
+    std::ifstream from(RAILCOSIM_DUMMY_DEM, std::ios::binary);
+    std::ofstream to(dem, std::ios::binary);
+    to << from.rdbuf();
+  }
+  ::chmod(dem.c_str(), 0755);
+  const std::string endpoint = "ipc://" + folder + "/run.sock";
+  const mode_t previous = ::umask(0);
+  Process fem(RAILCOSIM_DUMMY_FEM, {"--endpoint", endpoint, "--timeout", "8"});
+  announcedEndpoint(fem);
+  ::umask(previous);
+  Process intruder("/usr/bin/setpriv", {"--reuid=nobody", "--regid=nogroup", "--clear-groups", dem, "--endpoint", endpoint,
+                                        "--timeout", "10", "--windows", "3"});
+  BOOST_TEST(intruder.wait(20) == 2);
+  BOOST_TEST(contains(intruder.errors(), "refused this participant"));
+  BOOST_TEST(contains(fem.errors(), "process of another user"));
+  fem.wait(20);
+  ::unlink(dem.c_str());
+  ::rmdir(folder.c_str());
 }

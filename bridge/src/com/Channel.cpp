@@ -87,15 +87,22 @@ bool sameSecret(const std::string& presented, const std::string& expected) {
   return difference == 0;
 }
 
-/// ZeroMQ's peer address of an ipc connection on Linux ends in ":uid:gid:pid" (SO_PEERCRED); a process of
-/// another user is refused even if it can reach the socket file.
-bool sameUserOrNotIpc(const std::string& address) {
-  if (address.empty() || address.front() != ':') return true;  // tcp: an IP address
-  const std::size_t end = address.find(':', 1);
+/// The user id of an ipc peer from ZeroMQ's peer address, which ends in ":uid:gid:pid" on Linux
+/// (SO_PEERCRED, e.g. "localhost:1000:1000:4242"); -1 if the address has no such ending.
+long ipcPeerUser(const std::string& address) {
+  const std::size_t pidColon = address.rfind(':');
+  if (pidColon == std::string::npos || pidColon == 0) return -1;
+  const std::size_t gidColon = address.rfind(':', pidColon - 1);
+  if (gidColon == std::string::npos || gidColon == 0) return -1;
+  const std::size_t uidColon = address.rfind(':', gidColon - 1);
+  if (uidColon == std::string::npos) return -1;
   try {
-    return std::stoul(address.substr(1, end - 1)) == static_cast<unsigned long>(::geteuid());
+    std::size_t used = 0;
+    const std::string field = address.substr(uidColon + 1, gidColon - uidColon - 1);
+    const long uid = std::stol(field, &used);
+    return used == field.size() ? uid : -1;
   } catch (const std::exception&) {
-    return false;
+    return -1;
   }
 }
 
@@ -125,7 +132,7 @@ std::vector<std::string> receiveParts(void* socket) {
 class AdmissionHandler {
 public:
   AdmissionHandler(void* context, const std::string& token, std::string endpoint)
-      : password_(plainPassword(token)), endpoint_(std::move(endpoint)) {
+      : password_(plainPassword(token)), endpoint_(std::move(endpoint)), ipc_(endpoint_.rfind("ipc://", 0) == 0) {
     socket_ = zmq_socket(context, ZMQ_REP);
     if (socket_ == nullptr) throw Error(zmqError("creating the admission handler for", endpoint_));
     const int linger = 0;
@@ -164,11 +171,13 @@ private:
         reason = "not a railcosim participant";
       } else if (!sameSecret(request[7], password_)) {
         reason = "wrong run token";
-      } else if (!sameUserOrNotIpc(request[3])) {
-        reason = "process of another user";
+      } else if (ipc_ && ipcPeerUser(request[3]) != static_cast<long>(::geteuid())) {
+        // A process of another user that can reach the socket file (permissive directory) is refused.
+        reason = "process of another user (" + request[3] + ")";
       } else if (admitted_) {
         reason = "a participant already joined this run";
       }
+      log(LogLevel::Debug, "bridge transport: admission request on " + endpoint_ + " from '" + request[3] + "'");
       const bool admit = reason.empty();
       if (admit) {
         admitted_ = true;
@@ -183,6 +192,7 @@ private:
 
   std::string password_;
   std::string endpoint_;
+  bool ipc_ = false;
   void* socket_ = nullptr;
   std::thread thread_;
   std::atomic<bool> stopping_{false};

@@ -60,7 +60,8 @@ public:
     return peerName_.empty() ? "the " + peerRole_ + " participant" : "peer '" + peerName_ + "'";
   }
 
-  void openChannel() {
+  /// `maxIncomingBytes`: larger messages drop the connection inside ZeroMQ, before they are buffered.
+  void openChannel(std::uint64_t maxIncomingBytes) {
     com::ChannelOptions options;
     options.endpoint = config_.endpoint;
     options.side = role_ == protocol::Role::Fem ? com::Side::Bind : com::Side::Connect;
@@ -69,7 +70,7 @@ public:
     if (options.token.empty()) {
       if (const char* fromEnvironment = std::getenv("RAILCOSIM_BRIDGE_TOKEN")) options.token = fromEnvironment;
     }
-    options.maxMessageBytes = protocol::maxMessageBytes;
+    options.maxMessageBytes = maxIncomingBytes;
     // Long enough to flush a final message to a live peer, short enough that closing never hangs.
     options.lingerMilliseconds = static_cast<int>(std::min(1000.0, config_.timeoutSeconds * 1000.0));
     try {
@@ -265,7 +266,8 @@ public:
   std::string disconnectedMessage(const std::string& doing) const {
     std::ostringstream text;
     text << self() << ": " << peerLabel() << " disconnected from " << config_.endpoint << " while " << doing
-         << "; the " << peerRole_ << " process probably died - check its log";
+         << "; the " << peerRole_ << " process probably died - check its log (a message larger than the protocol "
+            "allows also ends the connection)";
     return text.str();
   }
 
@@ -416,7 +418,8 @@ void FemParticipant::initialize(const InterfaceMesh& mesh, double femTimeStep, c
   if (!(femTimeStep > 0.0) || !std::isfinite(femTimeStep)) {
     link.fail("initialize: femTimeStep = " + std::to_string(femTimeStep) + " s; it must be positive and finite");
   }
-  link.openChannel();
+  // The mesh is known before binding, so the FEM side accepts nothing larger than its own Forces.
+  link.openChannel(protocol::maxMessageBytesTowardsFem(mesh.nodeCount()));
   const std::string waitingFor = "the Hello of a DEM participant";
   auto [frame, header] = link.receive(waitingFor, false);
   if (header.type != protocol::MessageType::Hello) link.unexpected(header, "Hello");
@@ -533,7 +536,7 @@ DemParticipant::~DemParticipant() { impl_->link.finalizeQuietly(impl_->nextForce
 InterfaceSetup DemParticipant::initialize() {
   Link& link = impl_->link;
   if (link.open()) link.fail("initialize() called twice");
-  link.openChannel();
+  link.openChannel(protocol::maxMessageBytes);  // the interface mesh is not known yet
   // Queued by ZeroMQ until the FEM side binds; the wait below obeys the timeout.
   link.send(link.encode([&](auto buffer) { return protocol::encodeHello(link.ownHello(), protocol::protocolVersion, std::move(buffer)); }), "the Hello", false);
   const std::string waitingFor = "the Hello of the FEM participant";

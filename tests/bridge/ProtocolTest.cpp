@@ -145,7 +145,8 @@ BOOST_AUTO_TEST_CASE(rejects_version_mismatch_naming_both_versions) {
   hello.participantName = "dem";
   hello.role = Role::Dem;
   const auto bytes = encodeHello(hello, 7);
-  expectRejected([&] { decode(bytes); }, {"version", "version 7", "version " + std::to_string(protocolVersion)});
+  const std::string ours = "version " + std::to_string(protocolVersion);
+  expectRejected([&] { decode(bytes); }, {"version", "version 7", ours.c_str()});
 }
 
 BOOST_AUTO_TEST_CASE(rejects_unknown_type) {
@@ -347,4 +348,22 @@ BOOST_AUTO_TEST_CASE(decodes_from_unaligned_memory) {
   std::memcpy(poisoned.data() + 1 + headerBytes + 5 * sizeof(double), &nan, sizeof(double));
   expectRejected([&] { decodeKinematics(decodeHeader(poisoned.data() + 1, bytes.size()), poisoned.data() + 1, 7); },
                  {"'positions'[5]"});
+}
+
+BOOST_AUTO_TEST_CASE(rejects_node_count_in_messages_without_nodes) {
+  // docs/protocol.md §2: nodeCount is 0 for Hello, Finalize and Abort. Found by tests/fuzz: Hello and Abort took any.
+  Hello hello;
+  hello.participantName = "dem";
+  hello.role = Role::Dem;
+  auto helloBytes = encodeHello(hello);
+  patch<std::uint64_t>(helloBytes, offsetNodes, 29);
+  expectRejected([&] { decodeHello(decode(helloBytes), helloBytes.data()); }, {"Hello", "'nodeCount'", "29"});
+
+  auto abortBytes = encodeAbort(42, "dem: diverged");
+  patch<std::uint64_t>(abortBytes, offsetNodes, 29);
+  expectRejected([&] { decodeAbort(decode(abortBytes), abortBytes.data()); }, {"Abort", "'nodeCount'", "29"});
+
+  auto finalizeBytes = encodeFinalize(42);
+  patch<std::uint64_t>(finalizeBytes, offsetNodes, 29);
+  expectRejected([&] { decodeFinalize(decode(finalizeBytes)); }, {"Finalize", "'nodeCount'", "29"});
 }

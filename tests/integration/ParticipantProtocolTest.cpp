@@ -399,3 +399,23 @@ BOOST_AUTO_TEST_CASE(coupling_scheme_is_agreed_at_the_handshake) {
     fem.get();
   }
 }
+
+BOOST_AUTO_TEST_CASE(oversized_message_is_dropped_before_it_is_buffered) {
+  // 25 MB of "forces" towards a FEM side whose interface has 4 nodes (96 bytes of forces): ZeroMQ drops
+  // the connection at the frame header, so the FEM reports a lost peer, never the decoded message (which
+  // it would refuse only after buffering all of it: "nodeCount").
+  const std::string endpoint = uniqueEndpoint();
+  FemParticipant participant(ParticipantConfig{"fem", endpoint, 10.0, 1.0});
+  FakePeer dem(endpoint, com::Side::Connect);
+  auto init = std::async(std::launch::async,
+                         [&] { participant.initialize(square(), 1e-4, restingAt(square(), 0.0)); });
+  handshakeAsFakeDem(dem);
+  init.get();
+  ForceMessage forces;
+  forces.forces.assign(3 * 1'000'000, 0.0);
+  dem.send(protocol::encodeForces(forces));
+  auto receive = std::async(std::launch::async, [&] { participant.receiveForces(); });
+  const std::string message = expectThrows<PeerLostError>(receive);
+  BOOST_TEST(contains(message, "disconnected"));
+  BOOST_TEST(contains(message, "larger than the protocol allows"));
+}

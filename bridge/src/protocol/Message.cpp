@@ -213,6 +213,15 @@ void requireNoTriangles(const Header& header) {
   }
 }
 
+void requireNoNodes(const Header& header) {
+  if (header.nodeCount != 0) {
+    std::ostringstream text;
+    text << describe(header) << ": field 'nodeCount' is " << header.nodeCount
+         << " but only InterfaceMesh, Forces and Kinematics messages carry nodes";
+    throw ProtocolError(text.str());
+  }
+}
+
 void requireFlags(const Header& header, std::uint32_t allowed) {
   if ((header.flags & ~allowed) != 0) {
     std::ostringstream text;
@@ -462,6 +471,7 @@ Header decodeHeader(const std::uint8_t* data, std::size_t size) {
 }
 
 Hello decodeHello(const Header& header, const std::uint8_t* data) {
+  requireNoNodes(header);
   requireNoTriangles(header);
   requireFlags(header, 0);
   std::ostringstream text;
@@ -590,6 +600,7 @@ NodalKinematics decodeKinematics(const Header& header, const std::uint8_t* data,
 }
 
 std::string decodeAbort(const Header& header, const std::uint8_t* data) {
+  requireNoNodes(header);
   requireNoTriangles(header);
   requireFlags(header, 0);
   if (header.payloadBytes > maxTextBytes) {
@@ -604,7 +615,7 @@ std::string decodeAbort(const Header& header, const std::uint8_t* data) {
 void decodeFinalize(const Header& header) {
   requireNoTriangles(header);
   requireFlags(header, 0);
-  requireNodeCount(header, 0);
+  requireNoNodes(header);
   requirePayload(header, 0, "a Finalize message (no payload)");
 }
 

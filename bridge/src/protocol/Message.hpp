@@ -27,6 +27,13 @@ constexpr std::size_t maxTextBytes = 65'536;
 constexpr std::uint64_t maxMessageBytes =
     headerBytes + sizeof(double) + maxNodes * 3 * sizeof(double) + maxTriangles * 3 * sizeof(std::int32_t) +
     3 * maxNodes * 3 * sizeof(double);
+/// The largest message the FEM side can legally receive once its interface has `nodes` nodes: Forces,
+/// or a Hello/Abort carrying texts of at most maxTextBytes each.
+constexpr std::uint64_t maxMessageBytesTowardsFem(std::uint64_t nodes) {
+  const std::uint64_t forces = nodes * 3 * sizeof(double);
+  const std::uint64_t texts = 1 + 3 * (2 + maxTextBytes);
+  return headerBytes + (forces > texts ? forces : texts);
+}
 
 enum class MessageType : std::uint16_t {
   Hello = 1,

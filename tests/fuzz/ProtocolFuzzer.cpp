@@ -1,4 +1,4 @@
-// libFuzzer target: hostile bytes through the header decoder and the body decoder the header names (docs/protocol.md §10).
+// libFuzzer target: hostile bytes through the header decoder and the body decoder it names (docs/protocol.md §10).
 //
 // Expected outcome for a bad frame: railcosim::ProtocolError, the one type Participant.cpp catches to send the
 // peer an Abort. Findings (the process aborts and libFuzzer keeps the input): a crash or sanitizer report, a hang,
@@ -13,6 +13,7 @@
 #include <cstdlib>
 #include <cstring>
 #include <exception>
+#include <initializer_list>
 #include <string>
 #include <vector>
 
@@ -47,7 +48,8 @@ void requireCanonical(const Header& header, const std::uint8_t* data, std::vecto
   for (std::size_t i = 0; i < size; ++i) {
     if (encoded[i] != data[i]) {
       finding(header, "accepted frame differs from its re-encoding at byte " + std::to_string(i) +
-                          (i < headerBytes ? " (header)" : " (payload)") + ": the decoder let a non-canonical field through");
+                          (i < headerBytes ? " (header)" : " (payload)") +
+                          ": the decoder let a non-canonical field through");
     }
   }
 }
@@ -75,7 +77,8 @@ void fuzzHello(const Header& header, const std::uint8_t* data) {
         finding(header, "Hello scheme '" + hello.couplingScheme + "' accepted in a non-canonical spelling");
       }
     } catch (const Error& error) {
-      finding(header, std::string("Hello scheme accepted by decodeHello but refused by parseCouplingScheme: ") + error.what());
+      finding(header, std::string("Hello scheme accepted by decodeHello, refused by parseCouplingScheme: ") +
+                          error.what());
     }
   }
   if (hello.participantName.empty()) finding(header, "Hello with an empty participantName accepted");

@@ -6,6 +6,7 @@
 #include <cstdio>
 #include <exception>
 #include <fstream>
+#include <limits>
 #include <string>
 #include <utility>
 #include <vector>
@@ -115,10 +116,14 @@ int main(int argc, char** argv) {
         {"kinematics-9-velocities-window3-iteration2", encodeKinematics(3, sagging(grid3, 4 * dt, true, false), {}, 2)},
         {"finalize-window1000", encodeFinalize(1000)},
         {"abort-protocol-error",
-         encodeAbort(42, "dem: rejected a message from peer 'fem' while waiting for kinematics of window 42: Kinematics "
-                         "for window 42: field 'positions'[7] (node 2, y) is nan; the sender produced a non-finite "
-                         "value (diverged solution?)")},
+         encodeAbort(42, "dem: rejected a message from peer 'fem' while waiting for kinematics of window 42: "
+                         "Kinematics for window 42: field 'positions'[7] (node 2, y) is nan; the sender produced "
+                         "a non-finite value (diverged solution?)")},
         {"abort-over-limit", abortOverLimit()},
+        // Refusals a sender can encode but a receiver must reject; rarely reached by mutation from valid seeds.
+        {"hello-empty-name", encodeHello(hello(Role::Dem, "", ""))},
+        {"mesh-3x3-infinite-step",
+         encodeMesh(grid3, std::numeric_limits<double>::infinity(), sagging(grid3, 0.0, false, false))},
     };
     for (const auto& [name, bytes] : seeds) {
       const std::string path = folder + "/" + name;

@@ -30,6 +30,7 @@ packages=(
   libeigen3-dev python3-future python3-pil
   libzmq3-dev cppzmq-dev python3-h5py python3-scipy
   freefem++ libfreefem++-dev
+  clang libclang-rt-14-dev iproute2 util-linux
 )
 
 # with_progress LABEL LOG COMMAND...: runs COMMAND (output appended to LOG) and prints the percentage

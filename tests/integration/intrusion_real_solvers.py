@@ -5,8 +5,8 @@ Usage: intrusion_real_solvers.py RAILCOSIM INTRUDER DUMMY_DEM WORKDIR
 
 The intrusions of railcosim_intruder (raw connect-and-close, random bytes, a 1 TB frame announcement,
 200 MB of junk, ZeroMQ peers without or with a wrong token) hit the FEM's endpoint twice: as soon as it
-is bound, before YADE has joined (a stray must not take the run's one admission), and again mid-run; a
-second DEM participant without the run's token tries to join in between. The run must end as it would
+is bound, before YADE has joined (a stray must not take the run's one admission), and again right after
+the handshake; a second DEM participant without the run's token tries to join in between. The run must end as it would
 alone: exit 0, status ok, every check of the case passed.
 """
 import json
@@ -20,19 +20,22 @@ import time
 railcosim, intruder, dummy_dem, work = sys.argv[1:5]
 out = os.path.join(work, "beam")
 run = subprocess.Popen([railcosim, "run", os.path.join(os.path.dirname(railcosim), "cases", "beam_uniform_load"),
-                        "--smoke", "--force", "--out", out], stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+                        "--smoke", "--force", "--out", out, "--set", "duration_s=1.0"], stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
 lines = []
 endpoint_seen = threading.Event()
+coupled = threading.Event()
 endpoint = []
 
 
 def pump():
     for line in run.stdout:
         lines.append(line)
-        match = re.search(r"\[run\] endpoint (\S+)", line)
+        match = re.search(r"\[run\] endpoint ((?:ipc|tcp)://[^\s;,]+)", line)
         if match:
             endpoint.append(match.group(1))
             endpoint_seen.set()
+        if "handshake done" in line:
+            coupled.set()
 
 
 threading.Thread(target=pump, daemon=True).start()
@@ -67,10 +70,14 @@ if second.returncode == 0 or "refused this participant" not in second.stderr:
     run.kill()
     sys.exit("FAIL: a second DEM participant was not refused plainly")
 
-# 3. Mid-run (the smoke run couples for tens of seconds after YADE has started).
-time.sleep(5.0)
-if run.poll() is None:
-    attack("mid-run")
+# 3. Mid-run: right after the FEM reports the handshake with YADE (the run then couples for ~14 s of
+#    wall time: smoke size with 1 s of simulated time; the intrusions take ~2 s).
+if not coupled.wait(120):
+    run.kill()
+    sys.exit("FAIL: the FEM never reported its handshake with the DEM:\n" + "".join(lines[-30:]))
+attack("mid-run")
+if run.poll() is not None:
+    sys.exit("FAIL: the run had ended before the mid-run intrusions were over; they proved nothing")
 
 code = run.wait(600)
 summary_path = os.path.join(out, "summary.json")

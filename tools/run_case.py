@@ -1,37 +1,320 @@
 #!/usr/bin/python3
 """Runs a coupled case: starts the FEM and DEM solvers on a fresh endpoint, watches both, writes summary.json.
 
-Usage: railcosim run cases/NAME [--smoke] [--out DIR] [--force] [--set key=value ...]
+Usage: railcosim run cases/NAME [--smoke] [--out DIR] [--force] [--set key=value ...] [--time-limit SECONDS]
 
-A case folder holds case.toml (parameters, with a [smoke] table of overrides) and case.py, which defines
+A case folder holds case.toml and case.py. case.toml has
+  name, expected_wall_s      the case's name; the default run's wall time (sets the default --time-limit)
+  [parameters]               every parameter with its default; the default's type is the parameter's type
+  [limits]                   the parameters' ranges, e.g. fem_dt = {min_exclusive = 0}, scheme = {choices = [...]}
+  [smoke]                    overrides for --smoke
+A rule in [limits] combines min, min_exclusive, max, max_exclusive (a number, or the name of another
+parameter: average_s = {max = "duration_s"}), choices (a list), divides (dem_dt = {divides = "fem_dt"}: a
+whole number of steps) and force (the name of a boolean parameter that lifts the max bounds when true).
+Parameters shared by the cases (fem_dt, dem_dt, scheme, duration_s, ...) have their rules in
+tools/case_parameters.py (SHARED_LIMITS); a [limits] entry replaces them. Every parameter but a boolean must
+have a rule ({} for any value of its type), NaN and inf are always refused, and a bad value or a misspelt
+key is refused before anything starts (exit 2).
+
+case.py defines
   fem_command(params, endpoint, out) -> argv list      the FreeFEM participant
   dem_command(params, endpoint, out) -> argv list      the YADE participant (default: the folder's dem.py)
   reference_runs(params, out) -> [(name, argv), ...]   solver-only runs to compare with (default: none)
   postprocess(params, out) -> dict                     metrics, reference, relative_error, checks
+  check_parameters(params) -> [message, ...]           optional: rules [limits] cannot say (a critical step)
 Each check is {name, value, limit} and passes when value <= limit; the runner marks it.
+
+A run is written to OUT.partial-XXXXXXXX beside OUT and renamed to OUT at the end. A run that did not
+finish (failed, interrupted, time limit) never replaces an existing OUT: its folder is kept and named.
+The solvers run in their own process groups with line-buffered output, on an ipc endpoint in a per-run
+directory only the user can enter, with a per-run secret in RAILCOSIM_BRIDGE_TOKEN (environment only).
+SIGTERM, SIGHUP and SIGINT stop every solver (SIGTERM, SIGKILL after STOP_GRACE_S) and the summary records
+the signal and the stage. The default --time-limit is 20 x expected_wall_s (scaled with duration_s), at
+least 600 s, 3600 s when the case declares no expected_wall_s; 0 means none.
+
+Exit codes: 0 ok, 1 failed, 2 refused (command line, case, values), 3 a check failed, 4 time limit,
+128+N stopped by signal N (130 Ctrl-C, 129 SIGHUP, 143 SIGTERM).
 """
 import argparse
+import contextlib
 import importlib.util
 import json
+import math
 import os
+import secrets
 import shutil
 import signal
 import subprocess
 import sys
+import tempfile
 import threading
 import time
 import tomllib
-import uuid
+import traceback
 
+import case_parameters
 import railcosim_results as results
+from case_parameters import ParameterError
 
 # After one solver fails, how long the other may take to notice (the bridge reports a lost peer within a
 # few seconds) before it is stopped.
 PEER_GRACE_S = 15.0
+# SIGTERM to SIGKILL: stopping must end every solver within a second of a signal, and a solver that handles
+# SIGTERM needs only to close its files.
+STOP_GRACE_S = 0.5
+# A solver with neither output nor CPU use this long is described as frozen (a computing solver uses CPU
+# every second; one blocked on its peer does not, and the peer's state says which of them is stuck).
+FROZEN_IDLE_S = 10.0
+CPU_SAMPLE_S = 1.0
+POLL_S = 0.1
+EXIT_FAILED, EXIT_REFUSED, EXIT_CHECKS, EXIT_TIME_LIMIT = 1, 2, 3, 4
+STOP_SIGNALS = (signal.SIGTERM, signal.SIGHUP, signal.SIGINT)
 
 
 class CaseError(Exception):
     """A problem with the case definition or the command line, reported without a traceback."""
+
+
+class Stop(BaseException):
+    """Raised in the main thread by a stop signal or the time limit. A BaseException, so that a case's own
+    `except Exception` in its post-processing cannot swallow it."""
+
+    def __init__(self, signum):
+        self.signum = signum
+        self.time_limit = signum == signal.SIGALRM
+        super().__init__("time limit reached" if self.time_limit else f"{signal.Signals(signum).name} received")
+
+    @property
+    def exit_code(self):
+        return EXIT_TIME_LIMIT if self.time_limit else 128 + self.signum
+
+
+def say(text):
+    """Prints a runner line; a terminal that went away (SIGHUP) must not stop the clean-up."""
+    try:
+        print(text, flush=True)
+    except OSError:
+        pass
+
+
+class SignalGuard:
+    """Turns SIGTERM, SIGHUP, SIGINT and the time limit (SIGALRM) into Stop in the main thread. Inside
+    deferred() a signal is only recorded and raised on leaving it, so that no child is started unrecorded and
+    no file is half written; after disarm() signals are recorded only (the clean-up is already under way)."""
+
+    def __init__(self):
+        self.stop = None
+        self.armed = True
+        for signum in STOP_SIGNALS + (signal.SIGALRM,):
+            signal.signal(signum, self._handle)
+
+    def _handle(self, signum, frame):
+        if self.stop is None:
+            self.stop = Stop(signum)
+        if self.armed:
+            self.armed = False
+            raise self.stop
+
+    @contextlib.contextmanager
+    def deferred(self):
+        was_armed, self.armed = self.armed, False
+        try:
+            yield
+        finally:
+            self.armed = was_armed
+        if self.armed and self.stop is not None:
+            self.armed = False
+            raise self.stop
+
+    def disarm(self):
+        self.armed = False
+        signal.setitimer(signal.ITIMER_REAL, 0)
+
+    @staticmethod
+    def set_time_limit(seconds):
+        if seconds > 0:
+            signal.setitimer(signal.ITIMER_REAL, seconds)
+
+
+def process_group_stats():
+    """{process group: (CPU ticks of its members, whether one of them is stopped)} from /proc."""
+    stats = {}
+    for entry in os.listdir("/proc"):
+        if not entry.isdigit():
+            continue
+        try:
+            with open(f"/proc/{entry}/stat") as f:
+                fields = f.read().rsplit(")", 1)[1].split()
+        except OSError:
+            continue  # exited meanwhile
+        state, group, ticks = fields[0], int(fields[2]), int(fields[11]) + int(fields[12])
+        cpu, stopped = stats.get(group, (0, False))
+        stats[group] = (cpu + ticks, stopped or state == "T")
+    return stats
+
+
+class Solver:
+    """One child process in its own process group, output saved to NAME.log (and echoed with a prefix)."""
+
+    def __init__(self, name, argv, out, env, echo=True):
+        self.name, self.echo = name, echo
+        self.log_name = f"{name}.log"
+        self.log = open(os.path.join(out, self.log_name), "w", buffering=1)
+        self.last_lines = []
+        self.code = None
+        self.stopped_by = None      # why the runner stopped it, if it did
+        self.state_when_stopped = None
+        now = time.monotonic()
+        self.last_output = self.last_cpu_change = now
+        self.cpu_ticks, self.stopped_since = None, None
+        # stdbuf: FreeFEM's C++ stdout is block-buffered on a pipe (progress lines arrived 90 s late, and a
+        # killed run kept one line); stderr stays unbuffered so that an abort's last words are not lost.
+        prefix = ["stdbuf", "-oL"] if shutil.which("stdbuf") else []
+        self.process = subprocess.Popen(prefix + list(argv), cwd=out, env=env, stdout=subprocess.PIPE,
+                                        stderr=subprocess.STDOUT, stdin=subprocess.DEVNULL, text=True,
+                                        errors="replace", bufsize=1, start_new_session=True)
+        self.pid = self.process.pid
+        self.thread = threading.Thread(target=self._pump, daemon=True)
+        self.thread.start()
+
+    def _pump(self):
+        for line in self.process.stdout:
+            self.log.write(line)
+            self.last_output = time.monotonic()
+            self.last_lines = (self.last_lines + [line.rstrip()])[-20:]
+            if self.echo and not line.startswith("Using python version") and line.strip():
+                say(f"[{self.name}] {line.rstrip()}")
+        self.log.close()
+
+    @property
+    def running(self):
+        return self.code is None
+
+    def reap_if_exited(self):
+        """True once the process has exited. The group's remaining members are killed before the leader is
+        reaped: while it is a zombie its pid, and so the group id, cannot be reused by another process."""
+        if self.code is not None:
+            return True
+        try:
+            if os.waitid(os.P_PID, self.pid, os.WEXITED | os.WNOHANG | os.WNOWAIT) is None:
+                return False
+        except ChildProcessError:
+            pass  # already reaped: wait() below returns its code
+        else:
+            self._signal_group(signal.SIGKILL)
+        self.code = self.process.wait()
+        self.thread.join(2)
+        return True
+
+    def _signal_group(self, signum):
+        try:
+            os.killpg(self.pid, signum)
+        except (ProcessLookupError, PermissionError):
+            pass
+
+    def sample(self, stats, now):
+        """Updates CPU and stopped-state bookkeeping from process_group_stats()."""
+        ticks, stopped = stats.get(self.pid, (None, False))
+        if ticks is not None and ticks != self.cpu_ticks:
+            self.cpu_ticks, self.last_cpu_change = ticks, now
+        if stopped and self.stopped_since is None:
+            self.stopped_since = now
+        elif not stopped:
+            self.stopped_since = None
+
+    def state(self, now):
+        """What the process is doing, in words: frozen (stopped, or no output and no CPU), or running."""
+        if self.stopped_since is not None:
+            return f"appears frozen (stopped, state T, for {now - self.stopped_since:.0f} s)"
+        idle = now - max(self.last_output, self.last_cpu_change)
+        if idle >= FROZEN_IDLE_S:
+            return f"appears frozen (no output and no CPU for {idle:.0f} s)"
+        return f"was running (last output {now - self.last_output:.0f} s ago)"
+
+    def terminate(self, reason, now):
+        """SIGTERM (and SIGCONT, so that a stopped process can act on it) to the group; records why."""
+        if self.running and not self.stopped_by:
+            self.stopped_by = reason
+            self.state_when_stopped = self.state(now)
+            self._signal_group(signal.SIGTERM)
+            self._signal_group(signal.SIGCONT)
+
+    def kill(self):
+        if self.running:
+            self._signal_group(signal.SIGKILL)
+
+    def report(self):
+        entry = {"exit_code": self.code, "log": self.log_name}
+        if self.stopped_by:
+            entry.update({"stopped_by_runner": self.stopped_by, "state_when_stopped": self.state_when_stopped})
+        return entry
+
+    def failure(self):
+        """One phrase for the error line, or None when it exited with 0."""
+        if self.stopped_by:
+            return f"{self.name} {self.state_when_stopped}, stopped by the runner: {self.stopped_by}"
+        if self.code == 0:
+            return None
+        if self.code < 0:
+            return f"{self.name} was killed by {signal.Signals(-self.code).name} from outside the runner (see {self.log_name})"
+        return f"{self.name} exited with {self.code} (see {self.log_name})"
+
+
+def stop_solvers(solvers, reason):
+    """Stops every running solver within STOP_GRACE_S + a few ms: SIGTERM, then SIGKILL; all reaped."""
+    now = time.monotonic()
+    stats = process_group_stats()
+    for s in solvers:
+        if not s.reap_if_exited():  # one that has just ended by itself is not reported as stopped
+            s.sample(stats, now)
+            s.terminate(reason, now)
+    deadline = now + STOP_GRACE_S
+    while any(not s.reap_if_exited() for s in solvers) and time.monotonic() < deadline:
+        time.sleep(0.01)
+    for s in solvers:
+        s.kill()
+    for s in solvers:
+        while not s.reap_if_exited():
+            time.sleep(0.005)
+
+
+def watch_pair(solvers, guard):
+    """Waits for both solvers. Once one fails, the other gets PEER_GRACE_S to stop by itself, or none if it is
+    stopped (state T): it cannot act on its peer's loss."""
+    failed_at, warned, next_sample = None, set(), 0.0
+    while True:
+        with guard.deferred():
+            now = time.monotonic()
+            for s in solvers:
+                s.reap_if_exited()
+            running = [s for s in solvers if s.running]
+            if not running:
+                return
+            failed = [s for s in solvers if not s.running and s.code != 0]
+            if failed and failed_at is None:
+                failed_at, next_sample = now, now  # judge the survivor on a fresh sample
+            if now >= next_sample:
+                stats = process_group_stats()
+                for s in running:
+                    s.sample(stats, now)
+                next_sample = now + CPU_SAMPLE_S
+            for s in running:
+                if failed and s.stopped_since is not None:
+                    stop_solvers([s], f"{failed[0].name} failed and {s.name} is stopped, so it cannot finish")
+                elif failed and now - failed_at > PEER_GRACE_S:
+                    stop_solvers([s], f"still running {PEER_GRACE_S:.0f} s after {failed[0].name} failed")
+                elif s.stopped_since is not None and now - s.stopped_since > FROZEN_IDLE_S and s.name not in warned:
+                    warned.add(s.name)
+                    say(f"[run] {s.name} (pid {s.pid}) is stopped: the run cannot go on until it is continued (kill -CONT)")
+        time.sleep(POLL_S)
+
+
+def wait_reference(solver, guard):
+    while True:
+        with guard.deferred():
+            if solver.reap_if_exited():
+                return solver.code
+        time.sleep(POLL_S)
 
 
 def load_case(case_dir):
@@ -51,114 +334,261 @@ def load_case(case_dir):
     return config, module
 
 
-def convert_like(key, text, default):
-    """Converts a --set value to the type of the parameter's default, so typos fail loudly."""
+def make_partial_folder(out):
+    """OUT.partial-XXXXXXXX beside OUT, so that the final rename stays on one file system (atomic)."""
+    parent = os.path.dirname(out)
     try:
-        if isinstance(default, bool):
-            if text.lower() in ("1", "true", "yes", "on"):
-                return True
-            if text.lower() in ("0", "false", "no", "off"):
-                return False
-            raise ValueError
-        if isinstance(default, int):
-            return int(text)
-        if isinstance(default, float):
-            return float(text)
-        return text
-    except ValueError:
-        raise CaseError(f"--set {key}={text}: expected a {type(default).__name__} like the default {default!r}") from None
+        os.makedirs(parent, exist_ok=True)
+        partial = tempfile.mkdtemp(prefix=os.path.basename(out) + ".partial-", dir=parent)
+    except OSError as e:
+        raise CaseError(f"cannot write beside {out}: {e}") from None
+    umask = os.umask(0)
+    os.umask(umask)
+    os.chmod(partial, 0o777 & ~umask)  # mkdtemp's 0700 is for secrets; results are ordinary files
+    return partial
 
 
-def resolve_parameters(config, smoke, assignments):
-    params = dict(config.get("parameters", {}))
-    if smoke:
-        for key, value in config.get("smoke", {}).items():
-            if key not in params:
-                raise CaseError(f"case.toml [smoke] sets unknown parameter '{key}'")
-            params[key] = value
-    for item in assignments:
-        if "=" not in item:
-            raise CaseError(f"--set needs key=value, got '{item}'")
-        key, text = item.split("=", 1)
-        if key not in params:
-            known = ", ".join(sorted(params))
-            raise CaseError(f"--set: unknown parameter '{key}'. Known parameters: {known}")
-        params[key] = convert_like(key, text, params[key])
-    return params
+def make_ipc_folder():
+    """A directory only this user can enter (mkdtemp: 0700) for the run's socket; /tmp when $TMPDIR would
+    make the socket path longer than a Unix socket address allows."""
+    folder = tempfile.mkdtemp(prefix="railcosim-run-")
+    if len(os.path.join(folder, "bridge.sock")) > 100:
+        os.rmdir(folder)
+        folder = tempfile.mkdtemp(prefix="railcosim-run-", dir="/tmp")
+    return folder
 
 
-class Solver:
-    """One participant process whose output is echoed with a prefix and saved to a log file."""
+class Run:
+    """One run of a case, from its partial folder to the summary and the rename into place."""
 
-    def __init__(self, name, argv, out, env):
-        self.name = name
-        self.log_path = os.path.join(out, f"{name}.log")
-        self.log = open(self.log_path, "w")
-        self.last_lines = []
-        self.process = subprocess.Popen(argv, cwd=out, env=env, stdout=subprocess.PIPE, stderr=subprocess.STDOUT,
-                                        stdin=subprocess.DEVNULL, text=True, bufsize=1, start_new_session=True)
-        self.thread = threading.Thread(target=self._pump, daemon=True)
-        self.thread.start()
+    def __init__(self, name, case, params, out, args, time_limit, guard):
+        self.name, self.case, self.params, self.out = name, case, params, out
+        self.args, self.time_limit, self.guard = args, time_limit, guard
+        self.stage = "start"
+        self.status, self.error = "ok", None
+        self.solvers, self.references = [], []
+        self.summary = {}
+        self.stop, self.partial, self.coupled_wall = None, None, None
+        self.early_end = "the run ended"  # why solvers still running at the end are stopped, if no signal
 
-    def _pump(self):
-        for line in self.process.stdout:
-            self.log.write(line)
-            self.last_lines = (self.last_lines + [line.rstrip()])[-20:]
-            if not line.startswith("Using python version") and line.strip():
-                print(f"[{self.name}] {line.rstrip()}", flush=True)
-        self.log.close()
+    def execute(self):
+        start = time.monotonic()
+        ipc_folder = None
+        try:
+            with self.guard.deferred():
+                self.partial = make_partial_folder(self.out)
+                self.guard.set_time_limit(self.time_limit)
+                ipc_folder = make_ipc_folder()
+                self._write_parameters()
+            self._run_coupled(ipc_folder, start)
+            if self.status == "ok":
+                self._run_references()
+            if self.status == "ok":
+                self._postprocess()
+        except Stop as stop:
+            self.stop = stop
+        except Exception as e:  # mostly the case's own code: recorded with the run's files, not lost
+            if self.partial is None:
+                raise
+            with open(os.path.join(self.partial, "traceback.log"), "w") as f:
+                f.write(traceback.format_exc())
+            self.status = "failed"
+            self.error = f"{self.stage} failed: {type(e).__name__}: {e} (traceback in traceback.log)"
+        finally:
+            self.guard.disarm()
+            stop_solvers(self.solvers + self.references, self._stop_reason())
+            if ipc_folder:
+                shutil.rmtree(ipc_folder, ignore_errors=True)
+        if self.partial is None:
+            raise self.stop  # stopped before anything was written
+        if self.coupled_wall is None:
+            self.coupled_wall = time.monotonic() - start
+        if self.stop:
+            self._record_stop(self.stop)
+        self._write_summary(start)
+        where, note = self._move_into_place()
+        print_summary(self.summary, where)
+        if note:
+            say(f"[run] {note}")
+        return self._exit_code()
 
-    def poll(self):
-        return self.process.poll()
+    def _stop_reason(self):
+        stop = self.stop or self.guard.stop
+        if stop is None:
+            return self.early_end
+        if stop.time_limit:
+            return f"time limit of {self.time_limit:g} s reached"
+        return f"{signal.Signals(stop.signum).name} received by the runner"
 
-    def stop(self):
-        if self.process.poll() is None:
-            os.killpg(self.process.pid, signal.SIGTERM)
+    def _write_parameters(self, resolved=None):
+        record = dict(self.params, **({"resolved": resolved} if resolved else {}))
+        with open(os.path.join(self.partial, "parameters.json"), "w") as f:
+            json.dump(record, f, indent=2, sort_keys=True)
+
+    def _environment(self, token=None):
+        env = dict(os.environ, PYTHONUNBUFFERED="1")  # YADE's Python prints reach dem.log as they happen
+        env.pop("RAILCOSIM_BRIDGE_TOKEN", None)
+        if token:
+            env["RAILCOSIM_BRIDGE_TOKEN"] = token  # never on the command line: argv is public in ps
+        return env
+
+    def _run_coupled(self, ipc_folder, start):
+        self.stage = "coupled run"
+        endpoint = f"ipc://{os.path.join(ipc_folder, 'bridge.sock')}"
+        env = self._environment(secrets.token_hex(16))
+        say(f"[run] case {self.name}{' (smoke)' if self.args.smoke else ''} -> {self.out}")
+        say(f"[run] endpoint {endpoint}; time limit {self.time_limit:.0f} s" if self.time_limit
+            else f"[run] endpoint {endpoint}; no time limit")
+        dem_command = getattr(self.case, "dem_command", results.standard_dem_command)
+        commands = [("fem", self.case.fem_command(self.params, endpoint, self.partial)),
+                    ("dem", dem_command(self.params, endpoint, self.partial))]
+        for name, argv in commands:
+            if not self._start(self.solvers, name, argv, env):
+                return
+        watch_pair(self.solvers, self.guard)
+        self.coupled_wall = time.monotonic() - start
+        # The likely cause first: a frozen solver, then one that failed by itself, then those the runner stopped.
+        order = lambda s: 0 if (s.state_when_stopped or "").startswith("appears frozen") else 2 if s.stopped_by else 1
+        problems = [s.failure() for s in sorted(self.solvers, key=order) if s.failure()]
+        if problems:
+            self.status, self.error = "failed", "; ".join(problems)
+        else:
+            self._record_resolved()
+
+    def _start(self, group, name, argv, env, echo=True):
+        """Starts a solver into group (a signal waits until it is recorded there); False if it cannot start."""
+        with self.guard.deferred():
             try:
-                self.process.wait(5)
-            except subprocess.TimeoutExpired:
-                os.killpg(self.process.pid, signal.SIGKILL)
-                self.process.wait()
-        self.thread.join(5)
+                group.append(Solver(name, argv, self.partial, env, echo))
+            except OSError as e:
+                self.status, self.error = "failed", f"could not start {name} ({argv[0]}): {e}"
+                self.early_end = f"{name} could not be started"
+                return False
+        return True
+
+    def _record_resolved(self):
+        """The DEM step the run really used, from dem_info.json, next to the parameters that asked for it."""
+        path = os.path.join(self.partial, "dem_info.json")
+        if not os.path.isfile(path):
+            return
+        try:
+            with open(path) as f:
+                info = json.load(f)
+        except ValueError:
+            return  # the post-processing reads it too and reports it
+        resolved = {key: info[source] for key, source in (("dem_dt", "dt"), ("dem_steps_per_window", "subcycles"))
+                    if source in info}
+        if not resolved:
+            return
+        self.summary["resolved"] = resolved
+        asked = self.params.get("dem_dt")
+        if asked and "dem_dt" in resolved and not math.isclose(asked, resolved["dem_dt"], rel_tol=1e-6):
+            self.summary["warning"] = f"dem_dt={asked:g} was asked, the DEM ran with {resolved['dem_dt']:g}"
+        with self.guard.deferred():
+            self._write_parameters(resolved)
+
+    def _run_references(self):
+        env = self._environment()
+        self.stage = "reference runs"
+        for ref_name, argv in getattr(self.case, "reference_runs", lambda p, o: [])(self.params, self.partial):
+            self.stage = f"reference run '{ref_name}'"
+            say(f"[run] reference run '{ref_name}'")
+            if not self._start(self.references, ref_name, argv, env, echo=False):
+                return
+            solver = self.references[-1]
+            if wait_reference(solver, self.guard) != 0:
+                tail = "\n".join(solver.last_lines[-15:])
+                self.status = "failed"
+                self.error = f"reference run '{ref_name}' failed (exit {solver.code}; see {solver.log_name})"
+                say(f"[run] {self.error}:\n{tail}")
+                return
+
+    def _postprocess(self):
+        self.stage = "post-processing"
+        self.summary.update(self.case.postprocess(self.params, self.partial))
+        for check in self.summary.get("checks", []):
+            check["passed"] = bool(check["value"] <= check["limit"])
+
+    def _record_stop(self, stop):
+        if stop.time_limit:
+            self.status = "time_limit"
+            self.summary["time_limit"] = {"limit_s": self.time_limit, "stage": self.stage}
+            what = f"time limit of {self.time_limit:g} s reached during the {self.stage}"
+        else:
+            self.status = "interrupted"
+            self.summary["interrupted"] = {"signal": signal.Signals(stop.signum).name, "signal_number": stop.signum,
+                                           "stage": self.stage}
+            what = f"{signal.Signals(stop.signum).name} received during the {self.stage}"
+        states = [f"{s.name} {s.state_when_stopped}" for s in self.solvers + self.references if s.stopped_by]
+        self.error = what + ("; stopped by the runner: " + ", ".join(states) if states else "")
+
+    def _write_summary(self, start):
+        summary = {"case": self.name, "status": self.status, "smoke": self.args.smoke,
+                   "wall_time_s": round(self.coupled_wall, 3), "time_limit_s": self.time_limit or None,
+                   "parameters": self.params}
+        summary.update(self.summary)
+        if self.solvers or self.references:
+            summary["solvers"] = {s.name: s.report() for s in self.solvers + self.references}
+        if self.error:
+            summary["error"] = self.error
+        summary["total_wall_time_s"] = round(time.monotonic() - start, 3)
+        self.summary = summary
+        with open(os.path.join(self.partial, "summary.json"), "w") as f:
+            json.dump(summary, f, indent=2)
+
+    def _move_into_place(self):
+        """Renames the partial folder to OUT; an existing OUT (--force) is replaced only by a finished run.
+        Returns where the run's files are and a note when that is not OUT."""
+        if not os.path.exists(self.out):
+            os.rename(self.partial, self.out)
+            return self.out, None
+        if self.status != "ok" or not self.args.force:
+            why = "this run did not finish" if self.status != "ok" else "it appeared during the run (no --force)"
+            return self.partial, f"{self.out} kept ({why}); this run's output is in {self.partial}"
+        trash = tempfile.mkdtemp(prefix=os.path.basename(self.out) + ".old-", dir=os.path.dirname(self.out))
+        os.rename(self.out, os.path.join(trash, "previous"))
+        os.rename(self.partial, self.out)
+        shutil.rmtree(trash, ignore_errors=True)
+        return self.out, None
+
+    def _exit_code(self):
+        if self.stop:
+            return self.stop.exit_code
+        if self.status != "ok":
+            return EXIT_FAILED
+        return EXIT_CHECKS if any(not c["passed"] for c in self.summary.get("checks", [])) else 0
 
 
-def run_pair(solvers):
-    """Waits for both solvers; once one fails, gives the other PEER_GRACE_S to stop by itself."""
-    failed_at = None
-    while any(s.poll() is None for s in solvers):
-        if failed_at is None and any(s.poll() not in (None, 0) for s in solvers):
-            failed_at = time.monotonic()
-        if failed_at is not None and time.monotonic() - failed_at > PEER_GRACE_S:
-            for s in solvers:
-                if s.poll() is None:
-                    print(f"[run] {s.name} still running {PEER_GRACE_S:.0f} s after its peer failed: stopping it",
-                          flush=True)
-                    s.stop()
-        time.sleep(0.1)
-    for s in solvers:
-        s.thread.join(5)
-    return {s.name: s.poll() for s in solvers}
+def print_summary(summary, where):
+    say(f"[run] status: {summary['status']}  coupled wall time: {summary['wall_time_s']:.1f} s")
+    if "error" in summary:
+        say(f"[run] error: {summary['error']}")
+    for key, value in summary.get("metrics", {}).items():
+        say(f"[run]   {key} = {value}")
+    for key, value in summary.get("relative_error", {}).items():
+        say(f"[run]   relative error {key} = {value:.3%}" if isinstance(value, float) else f"[run]   {key} = {value}")
+    for check in summary.get("checks", []):
+        mark = "PASS" if check["passed"] else "FAIL"
+        say(f"[run]   check {mark}: {check['name']}: {check['value']:.4g} (limit {check['limit']:.4g})")
+    say(f"[run] summary: {os.path.join(where, 'summary.json')}")
 
 
-def run_reference(name, argv, out, env):
-    print(f"[run] reference run '{name}'", flush=True)
-    log_path = os.path.join(out, f"{name}.log")
-    with open(log_path, "w") as log:
-        result = subprocess.run(argv, cwd=out, env=env, stdout=log, stderr=subprocess.STDOUT,
-                                stdin=subprocess.DEVNULL, timeout=1800)
-    if result.returncode != 0:
-        with open(log_path) as log:
-            tail = "".join(log.readlines()[-15:])
-        raise CaseError(f"reference run '{name}' failed (exit {result.returncode}); see {log_path}:\n{tail}")
+def time_limit_argument(text):
+    value = float(text)
+    if not math.isfinite(value) or value < 0:
+        raise argparse.ArgumentTypeError(f"{text} is not a number of seconds >= 0")
+    return value
 
 
-def main(argv):
+def main(argv, guard):
     parser = argparse.ArgumentParser(prog="railcosim run", description="Run a coupled DEM-FEM case.")
     parser.add_argument("case", help="case folder, e.g. cases/beam_uniform_load")
     parser.add_argument("--smoke", action="store_true", help="small, fast variant (<= 60 s) used by the tests")
     parser.add_argument("--out", help="results folder (default results/NAME or results/NAME-smoke)")
-    parser.add_argument("--force", action="store_true", help="replace an existing results folder")
+    parser.add_argument("--force", action="store_true", help="replace an existing results folder once this run finished")
     parser.add_argument("--set", action="append", default=[], metavar="KEY=VALUE", help="override a parameter")
+    parser.add_argument("--time-limit", type=time_limit_argument, metavar="SECONDS",
+                        help="wall-clock limit of the whole run (default: from the case, at least 600 s; 0: none)")
     args = parser.parse_args(argv)
 
     case_dir = os.path.abspath(args.case.rstrip("/"))
@@ -166,84 +596,28 @@ def main(argv):
         raise CaseError(f"no such case folder: {args.case}")
     config, case = load_case(case_dir)
     name = config.get("name", os.path.basename(case_dir))
-    params = resolve_parameters(config, args.smoke, args.set)
+    params = case_parameters.resolve_parameters(config, args.smoke, args.set)
+    problems = case_parameters.check_parameters(params, config, case)
+    if problems:
+        raise ParameterError("\n".join(problems))
+    time_limit = args.time_limit if args.time_limit is not None else case_parameters.default_time_limit(config, params)
     params["smoke"] = args.smoke
     params["case_dir"] = case_dir
 
     out = os.path.abspath(args.out or os.path.join(os.getcwd(), "results", name + ("-smoke" if args.smoke else "")))
-    if os.path.exists(out):
-        if not args.force:
-            raise CaseError(f"results folder {out} already exists; pass --force to replace it or --out to choose another")
-        shutil.rmtree(out)
-    os.makedirs(out)
-    with open(os.path.join(out, "parameters.json"), "w") as f:
-        json.dump(params, f, indent=2, sort_keys=True)
-
-    endpoint = f"ipc:///tmp/railcosim-{os.getpid()}-{uuid.uuid4().hex[:8]}.sock"
-    env = dict(os.environ)
-    print(f"[run] case {name}{' (smoke)' if args.smoke else ''} -> {out}", flush=True)
-    print(f"[run] endpoint {endpoint}", flush=True)
-
-    start = time.monotonic()
-    status, error = "ok", None
-    solvers = []
-    try:
-        dem_command = getattr(case, "dem_command", results.standard_dem_command)
-        solvers = [Solver("fem", case.fem_command(params, endpoint, out), out, env),
-                   Solver("dem", dem_command(params, endpoint, out), out, env)]
-        codes = run_pair(solvers)
-        bad = {k: v for k, v in codes.items() if v != 0}
-        if bad:
-            status = "failed"
-            error = "; ".join(f"{k} exited with {v} (log: {os.path.join(out, k + '.log')})" for k, v in bad.items())
-    except KeyboardInterrupt:
-        status, error = "failed", "interrupted by the user"
-        for s in solvers:
-            s.stop()
-    finally:
-        ipc_path = endpoint[len("ipc://"):]
-        if os.path.exists(ipc_path):
-            os.unlink(ipc_path)
-    coupled_wall = time.monotonic() - start
-
-    summary = {"case": name, "status": status, "smoke": args.smoke, "wall_time_s": round(coupled_wall, 3),
-               "parameters": params}
-    if status == "ok":
-        for ref_name, ref_argv in getattr(case, "reference_runs", lambda p, o: [])(params, out):
-            run_reference(ref_name, ref_argv, out, env)
-        summary.update(case.postprocess(params, out))
-        for check in summary.get("checks", []):
-            check["passed"] = bool(check["value"] <= check["limit"])
-    else:
-        summary["error"] = error
-    summary["total_wall_time_s"] = round(time.monotonic() - start, 3)
-    with open(os.path.join(out, "summary.json"), "w") as f:
-        json.dump(summary, f, indent=2)
-
-    print_summary(summary, out)
-    if status != "ok":
-        return 1
-    failed_checks = [c for c in summary.get("checks", []) if not c["passed"]]
-    return 3 if failed_checks else 0
-
-
-def print_summary(summary, out):
-    print(f"[run] status: {summary['status']}  coupled wall time: {summary['wall_time_s']:.1f} s", flush=True)
-    if "error" in summary:
-        print(f"[run] error: {summary['error']}", flush=True)
-    for key, value in summary.get("metrics", {}).items():
-        print(f"[run]   {key} = {value}")
-    for key, value in summary.get("relative_error", {}).items():
-        print(f"[run]   relative error {key} = {value:.3%}" if isinstance(value, float) else f"[run]   {key} = {value}")
-    for check in summary.get("checks", []):
-        mark = "PASS" if check["passed"] else "FAIL"
-        print(f"[run]   check {mark}: {check['name']}: {check['value']:.4g} (limit {check['limit']:.4g})")
-    print(f"[run] summary: {os.path.join(out, 'summary.json')}", flush=True)
+    if os.path.exists(out) and not args.force:
+        raise CaseError(f"results folder {out} already exists; pass --force to replace it or --out to choose another")
+    return Run(name, case, params, out, args, time_limit, guard).execute()
 
 
 if __name__ == "__main__":
+    guard = SignalGuard()
     try:
-        sys.exit(main(sys.argv[1:]))
-    except CaseError as e:
-        print(f"railcosim run: {e}", file=sys.stderr)
-        sys.exit(2)
+        sys.exit(main(sys.argv[1:], guard))
+    except (CaseError, ParameterError) as e:
+        for line in str(e).splitlines():
+            print(f"railcosim run: {line}", file=sys.stderr)
+        sys.exit(EXIT_REFUSED)
+    except Stop as stop:
+        print(f"railcosim run: {stop} before the run started; nothing was written", file=sys.stderr)
+        sys.exit(stop.exit_code)

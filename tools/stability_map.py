@@ -20,8 +20,10 @@ Writes DIR/stability_map.json, DIR/stability_map.md, DIR/stability_map.png.
 """
 import argparse
 import itertools
+import glob
 import json
 import os
+import shutil
 import subprocess
 import sys
 
@@ -40,7 +42,11 @@ def parse_point(text):
 
 
 def run_point(root, case, run_dir, settings, smoke):
-    command = [os.path.join(root, "railcosim"), "run", case, "--out", run_dir, "--force"] + (["--smoke"] if smoke else [])
+    # The runner keeps an earlier result when a run fails, so a point's old summary could stand in for a
+    # failed rerun: the point's folders (result and unfinished ones) are removed first.
+    for old in [run_dir] + glob.glob(run_dir + ".partial-*"):
+        shutil.rmtree(old, ignore_errors=True)
+    command = [os.path.join(root, "railcosim"), "run", case, "--out", run_dir] + (["--smoke"] if smoke else [])
     for key, value in settings:
         command += ["--set", f"{key}={value}"]
     subprocess.run(command, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)

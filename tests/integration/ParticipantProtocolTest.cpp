@@ -92,6 +92,18 @@ void handshakeAsFakeDem(FakePeer& dem) {
   BOOST_REQUIRE(dem.receive(mesh).type == protocol::MessageType::InterfaceMesh);
 }
 
+/// A FEM participant (square interface) past its handshake with a scripted DEM peer.
+struct FemAfterHandshake {
+  std::string endpoint = uniqueEndpoint();
+  FemParticipant participant{ParticipantConfig{"fem", endpoint, 10.0, 1.0}};
+  FakePeer dem{endpoint, com::Side::Connect};
+  FemAfterHandshake() {
+    auto init = std::async(std::launch::async, [&] { participant.initialize(square(), 1e-4, restingAt(square(), 0.0)); });
+    handshakeAsFakeDem(dem);
+    init.get();
+  }
+};
+
 } // namespace
 
 BOOST_AUTO_TEST_CASE(just_in_time_run_transfers_data_unchanged) {
@@ -250,13 +262,9 @@ BOOST_AUTO_TEST_CASE(participants_with_the_same_name_are_rejected) {
 }
 
 BOOST_AUTO_TEST_CASE(unexpected_message_type_names_what_was_expected) {
-  const std::string endpoint = uniqueEndpoint();
-  FemParticipant participant(ParticipantConfig{"fem", endpoint, 10.0, 1.0});
-  FakePeer dem(endpoint, com::Side::Connect);
-  auto init = std::async(std::launch::async,
-                         [&] { participant.initialize(square(), 1e-4, restingAt(square(), 0.0)); });
-  handshakeAsFakeDem(dem);
-  init.get();
+  FemAfterHandshake run;
+  FemParticipant& participant = run.participant;
+  FakePeer& dem = run.dem;
   dem.send(protocol::encodeKinematics(0, restingAt(square(), 0.0)));
   auto receive = std::async(std::launch::async, [&] { participant.receiveForces(); });
   const std::string message = expectThrows<ProtocolError>(receive);
@@ -265,13 +273,9 @@ BOOST_AUTO_TEST_CASE(unexpected_message_type_names_what_was_expected) {
 }
 
 BOOST_AUTO_TEST_CASE(window_out_of_sequence_is_rejected) {
-  const std::string endpoint = uniqueEndpoint();
-  FemParticipant participant(ParticipantConfig{"fem", endpoint, 10.0, 1.0});
-  FakePeer dem(endpoint, com::Side::Connect);
-  auto init = std::async(std::launch::async,
-                         [&] { participant.initialize(square(), 1e-4, restingAt(square(), 0.0)); });
-  handshakeAsFakeDem(dem);
-  init.get();
+  FemAfterHandshake run;
+  FemParticipant& participant = run.participant;
+  FakePeer& dem = run.dem;
   ForceMessage forces;
   forces.window = 1;
   forces.forces.assign(12, 0.0);
@@ -281,13 +285,9 @@ BOOST_AUTO_TEST_CASE(window_out_of_sequence_is_rejected) {
 }
 
 BOOST_AUTO_TEST_CASE(forces_for_another_mesh_size_are_rejected) {
-  const std::string endpoint = uniqueEndpoint();
-  FemParticipant participant(ParticipantConfig{"fem", endpoint, 10.0, 1.0});
-  FakePeer dem(endpoint, com::Side::Connect);
-  auto init = std::async(std::launch::async,
-                         [&] { participant.initialize(square(), 1e-4, restingAt(square(), 0.0)); });
-  handshakeAsFakeDem(dem);
-  init.get();
+  FemAfterHandshake run;
+  FemParticipant& participant = run.participant;
+  FakePeer& dem = run.dem;
   ForceMessage forces;
   forces.forces.assign(9, 0.0);  // 3 nodes instead of 4
   dem.send(protocol::encodeForces(forces));
@@ -298,13 +298,9 @@ BOOST_AUTO_TEST_CASE(forces_for_another_mesh_size_are_rejected) {
 }
 
 BOOST_AUTO_TEST_CASE(abort_from_the_peer_is_quoted) {
-  const std::string endpoint = uniqueEndpoint();
-  FemParticipant participant(ParticipantConfig{"fem", endpoint, 10.0, 1.0});
-  FakePeer dem(endpoint, com::Side::Connect);
-  auto init = std::async(std::launch::async,
-                         [&] { participant.initialize(square(), 1e-4, restingAt(square(), 0.0)); });
-  handshakeAsFakeDem(dem);
-  init.get();
+  FemAfterHandshake run;
+  FemParticipant& participant = run.participant;
+  FakePeer& dem = run.dem;
   dem.send(protocol::encodeAbort(0, "fake-dem: contact detection ran out of memory"));
   auto receive = std::async(std::launch::async, [&] { participant.receiveForces(); });
   const std::string message = expectThrows<PeerLostError>(receive);
@@ -404,13 +400,9 @@ BOOST_AUTO_TEST_CASE(oversized_message_is_dropped_before_it_is_buffered) {
   // 25 MB of "forces" towards a FEM side whose interface has 4 nodes (96 bytes of forces): ZeroMQ drops
   // the connection at the frame header, so the FEM reports a lost peer, never the decoded message (which
   // it would refuse only after buffering all of it: "nodeCount").
-  const std::string endpoint = uniqueEndpoint();
-  FemParticipant participant(ParticipantConfig{"fem", endpoint, 10.0, 1.0});
-  FakePeer dem(endpoint, com::Side::Connect);
-  auto init = std::async(std::launch::async,
-                         [&] { participant.initialize(square(), 1e-4, restingAt(square(), 0.0)); });
-  handshakeAsFakeDem(dem);
-  init.get();
+  FemAfterHandshake run;
+  FemParticipant& participant = run.participant;
+  FakePeer& dem = run.dem;
   ForceMessage forces;
   forces.forces.assign(3 * 1'000'000, 0.0);
   dem.send(protocol::encodeForces(forces));

@@ -41,7 +41,7 @@ def reference_runs(p, out):
     """Static solves of the same FreeFEM beam: (1) under the equivalent uniform pressure lumped to the
     surface nodes (the case's reference); (2) under the coupled run's own nodal forces averaged over the
     final span, which isolates what the coupling adds from how unevenly the particles load the beam."""
-    series = np.load(os.path.join(out, "dem_timeseries.npz"))
+    series = results.read_dem_series(out)
     mean_forces = series["nodal_forces"][_final_span(p, series["time"])].mean(axis=0).ravel()
     forces_file = os.path.join(out, "mean_nodal_forces.txt")
     with open(forces_file, "w") as f:
@@ -73,7 +73,7 @@ def postprocess(p, out):
     same_load = results.read_json(os.path.join(out, "same_load_fem", "fem_summary.json"))
     dem = results.read_json(os.path.join(out, "dem_info.json"))
     monitor = results.read_csv_columns(os.path.join(out, "fem", "fem_monitor.csv"))
-    series = dict(np.load(os.path.join(out, "dem_timeseries.npz")))
+    series = results.read_dem_series(out)
 
     coupled = -fem["averageMonitorDisplacement"][2]       # downward deflection, positive
     direct_deflection = -direct["finalMonitorDisplacement"][2]

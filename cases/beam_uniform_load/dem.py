@@ -91,9 +91,9 @@ print(f"{count} spheres, {total_mass:.3f} kg, radius {R} m; {len(coupling.triang
       f"({coupling.contactModel} contacts); "
       f"O.dt={O.dt:.3e} s, {n} DEM steps per FEM step, {windows} windows", flush=True)
 
-# 5. One record per window: interface force, kinetic energy, nodal forces and kinematics.
-series = {"time": [], "interface_force": [], "interface_work_dem": [], "interface_work_fem": [], "kinetic_energy": [], "nodal_forces": [], "node_positions": [],
-          "node_velocities": [], "particles_below_surface": []}
+# 5. One record per window: interface force, kinetic energy, nodal forces and kinematics, written to
+#    dem_timeseries.h5 as the run goes (memory stays flat however long the run).
+recorder = results.DemRecorder(out)
 
 
 def particles_below_surface():
@@ -104,19 +104,13 @@ wall_start = time.monotonic()
 
 
 def record():
-    series["time"].append(O.time)
-    series["interface_force"].append(tuple(coupling.totalForce))
-    series["interface_work_dem"].append(coupling.interfaceWorkDem)
-    series["interface_work_fem"].append(coupling.interfaceWorkFem)
-    series["kinetic_energy"].append(utils.kineticEnergy())
-    series["nodal_forces"].append([tuple(f) for f in coupling.nodalForces])
-    series["node_positions"].append([tuple(x) for x in coupling.nodePositions])
-    series["node_velocities"].append([tuple(v) for v in coupling.nodeVelocities])
-    series["particles_below_surface"].append(particles_below_surface())
-    k = len(series["time"])
-    if k % max(1, windows // 10) == 0:
+    recorder.append(time=O.time, interface_force=coupling.totalForce, interface_work_dem=coupling.interfaceWorkDem,
+                    interface_work_fem=coupling.interfaceWorkFem, kinetic_energy=utils.kineticEnergy(),
+                    nodal_forces=coupling.nodalForces, node_positions=coupling.nodePositions,
+                    node_velocities=coupling.nodeVelocities, particles_below_surface=particles_below_surface())
+    if len(recorder) % max(1, windows // 10) == 0:
         print(f"t={O.time:.4f} s  window {coupling.window}/{windows}  interface Fz={coupling.totalForce[2]:.2f} N "
-              f"(weight {total_mass * 9.81:.2f} N)  kinetic energy {series['kinetic_energy'][-1]:.3e} J  "
+              f"(weight {total_mass * 9.81:.2f} N)  kinetic energy {recorder.last['kinetic_energy']:.3e} J  "
               f"{time.monotonic() - wall_start:.1f} s", flush=True)
 
 
@@ -128,6 +122,6 @@ wall = time.monotonic() - wall_start
 
 info = {**results.coupling_info(coupling), "steps": O.iter, "dt": O.dt, "particles": count, "total_particle_mass_kg": total_mass,
         "wall_time_s": wall, "final_kinetic_energy_j": utils.kineticEnergy(), "particles_below_surface": particles_below_surface()}
-results.save_dem_outputs(out, series, info, triangles=np.asarray([tuple(t) for t in coupling.triangles], dtype=int))
+results.save_dem_outputs(out, recorder, info, triangles=np.asarray([tuple(t) for t in coupling.triangles], dtype=int))
 print(f"done: {O.iter} steps in {wall:.1f} s; bridge {coupling.bridgeTime:.3f} s over {coupling.exchanges} exchanges",
       flush=True)

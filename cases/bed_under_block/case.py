@@ -24,7 +24,7 @@ def postprocess(p, out):
     dem = results.read_json(os.path.join(out, "dem_info.json"))
     fem = results.read_json(os.path.join(out, "fem", "fem_summary.json"))
     monitor = results.read_csv_columns(os.path.join(out, "fem", "fem_monitor.csv"))
-    series = dict(np.load(os.path.join(out, "dem_timeseries.npz")))
+    series = results.read_dem_series(out)
     final = series["time"] >= series["time"][-1] - p["average_s"]
     load = dem["load_n"]
     block_force = float(np.mean(series["interface_force"][final, 2]))  # upward on the block

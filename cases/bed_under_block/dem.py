@@ -74,21 +74,18 @@ n, windows = coupling.subcycles, int(round(p["duration_s"] / coupling.femDt))
 load = p["load_pressure"] * L * W
 print(f"coupled: O.dt={O.dt:.2e} s, {n} DEM steps per FEM step, {windows} windows, load {load:.1f} N", flush=True)
 
-series = {"time": [], "interface_force": [], "interface_work_dem": [], "interface_work_fem": [], "kinetic_energy": [], "floor_force_z": []}
+recorder = results.DemRecorder(out)  # dem_timeseries.h5, written as the run goes
 wall_start = time.monotonic()
 coupling_start = O.time  # the FEM clock starts at the handshake; record on the same clock
 
 
 def record():
-    series["time"].append(O.time - coupling_start)
-    series["interface_force"].append(tuple(coupling.totalForce))
-    series["interface_work_dem"].append(coupling.interfaceWorkDem)
-    series["interface_work_fem"].append(coupling.interfaceWorkFem)
-    series["kinetic_energy"].append(utils.kineticEnergy())
-    series["floor_force_z"].append(O.forces.f(floor)[2])
-    if len(series["time"]) % max(1, windows // 8) == 0:
+    recorder.append(time=O.time - coupling_start, interface_force=coupling.totalForce,
+                    interface_work_dem=coupling.interfaceWorkDem, interface_work_fem=coupling.interfaceWorkFem,
+                    kinetic_energy=utils.kineticEnergy(), floor_force_z=O.forces.f(floor)[2])
+    if len(recorder) % max(1, windows // 8) == 0:
         print(f"t={O.time - coupling_start:.4f} s  window {coupling.window}/{windows}  block force {coupling.totalForce[2]:.1f} N "
-              f"(load {load:.1f} N)  kinetic energy {series['kinetic_energy'][-1]:.2e} J  "
+              f"(load {load:.1f} N)  kinetic energy {recorder.last['kinetic_energy']:.2e} J  "
               f"{time.monotonic() - wall_start:.1f} s", flush=True)
 
 
@@ -98,4 +95,4 @@ coupling.finalize()
 info = {**results.coupling_info(coupling), "steps": O.iter, "dt": O.dt, "particles": len(spheres),
         "wall_time_s": time.monotonic() - wall_start, "load_n": load,
         "final_kinetic_energy_j": utils.kineticEnergy()}
-results.save_dem_outputs(out, series, info)
+results.save_dem_outputs(out, recorder, info)

@@ -1,4 +1,5 @@
 """Case plate_impact: solver commands and the energy balance of an elastic impact (see README.md)."""
+import math
 import os
 
 import numpy as np
@@ -16,13 +17,21 @@ def fem_command(p, endpoint, out):
             "-progressEvery", "50", "-out", os.path.join(out, "fem")]
 
 
+def check_parameters(p):
+    """Refuses a DEM step above the sphere's P-wave step (YADE's PWaveTimeStep: R / sqrt(E / rho)), the
+    critical step estimate the other cases scale by dem_dt_safety, unless force_dem_dt is set."""
+    critical = p["sphere_radius"] / math.sqrt(p["plate_young"] / p["sphere_density"])
+    if p["dem_dt"] > critical and not p["force_dem_dt"]:
+        return [f"dem_dt={p['dem_dt']:g} is above the critical step {critical:.4g} s (P-wave step of the sphere); "
+                f"choose dem_dt <= {critical:.4g} or --set force_dem_dt=true"]
+    return []
 
 
 def postprocess(p, out):
     dem = results.read_json(os.path.join(out, "dem_info.json"))
     fem = results.read_json(os.path.join(out, "fem", "fem_summary.json"))
     monitor = results.read_csv_columns(os.path.join(out, "fem", "fem_monitor.csv"))
-    series = dict(np.load(os.path.join(out, "dem_timeseries.npz")))
+    series = results.read_dem_series(out)
     initial = dem["initial_energy_j"]
     plate = monitor["kineticEnergy"] + monitor["strainEnergy"]
     sphere_final = dem["final_sphere_energy_j"]

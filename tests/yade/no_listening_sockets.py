@@ -61,8 +61,8 @@ class Process:
 
 
 def listening_sockets(pid):
-    """(netid, local address) of every listening TCP, unconnected UDP/raw and listening unix socket of `pid`."""
-    lines = subprocess.run(["ss", "-H", "-l", "-n", "-p", "-A", "inet,unix"], capture_output=True, text=True,
+    """(netid, local address) of every listening TCP socket, UDP socket and listening unix socket of `pid`."""
+    lines = subprocess.run(["ss", "-H", "-l", "-n", "-p", "-t", "-u", "-x"], capture_output=True, text=True,
                            check=True).stdout.splitlines()
     owned = [line.split() for line in lines if f"pid={pid}," in line]
     return [(fields[0], fields[4]) for fields in owned]
@@ -70,7 +70,7 @@ def listening_sockets(pid):
 
 def audit(name, pid, allowed_unix=()):
     sockets = listening_sockets(pid)
-    print(f"{name}: ss -Hlnp -A inet,unix for pid {pid}: {sockets or 'nothing'}", flush=True)
+    print(f"{name}: ss -Hlnp -tux for pid {pid}: {sockets or 'nothing'}", flush=True)
     for netid, address in sockets:
         if not netid.startswith("u_") or address not in allowed_unix:
             fail(f"{name}: YADE (pid {pid}) listens on {netid} {address}")

@@ -182,8 +182,12 @@ private:
       if (admit) {
         admitted_ = true;
       } else {
-        ++refused_;
-        log(LogLevel::Warning, "bridge transport: refused a connection on " + endpoint_ + " (" + reason + ")");
+        // A refused ZeroMQ peer retries every 100 ms: the first refusals are logged, then one in a thousand.
+        const int count = ++refused_;
+        if (count <= 10 || count % 1000 == 0) {
+          log(LogLevel::Warning, "bridge transport: refused a connection on " + endpoint_ + " (" + reason + ")" +
+                                     (count >= 10 ? "; " + std::to_string(count) + " refused so far" : ""));
+        }
       }
       const std::string reply[6] = {"1.0", request[1], admit ? "200" : "400", admit ? "OK" : reason, "", ""};
       for (int i = 0; i < 6; ++i) zmq_send(socket_, reply[i].data(), reply[i].size(), i < 5 ? ZMQ_SNDMORE : 0);

@@ -158,7 +158,12 @@ public:
   std::pair<com::Frame, protocol::Header> receive(const std::string& waitingFor, bool countAsExchange) {
     com::Frame frame;
     com::Timing timing;
-    const com::Status status = channel_->receive(frame, config_.timeoutSeconds, timing);
+    com::Status status = com::Status::Ok;
+    try {
+      status = channel_->receive(frame, config_.timeoutSeconds, timing);
+    } catch (const ProtocolError& error) {  // a multi-part message: told to the peer like any bad message
+      rejectPeer(error.what(), waitingFor);
+    }
     statistics_.transferSeconds += timing.transferSeconds;
     statistics_.waitSeconds += timing.waitSeconds;
     if (status == com::Status::PeerDisconnected) {

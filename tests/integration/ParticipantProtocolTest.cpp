@@ -7,11 +7,16 @@
 #include "railcosim/Error.hpp"
 #include "railcosim/Participant.hpp"
 
+#include <sys/socket.h>
+#include <sys/un.h>
+#include <unistd.h>
+
 #include <atomic>
 #include <chrono>
+#include <cstring>
 #include <future>
 #include <limits>
-#include <unistd.h>
+#include <thread>
 
 using namespace railcosim;
 
@@ -410,4 +415,49 @@ BOOST_AUTO_TEST_CASE(oversized_message_is_dropped_before_it_is_buffered) {
   const std::string message = expectThrows<PeerLostError>(receive);
   BOOST_TEST(contains(message, "disconnected"));
   BOOST_TEST(contains(message, "larger than the protocol allows"));
+}
+
+BOOST_AUTO_TEST_CASE(peer_gone_before_its_first_frame_was_read_is_reported) {
+  // The DEM sends its Hello and dies before the FEM side reads it: the disconnection reaches the monitor
+  // before the connection is known as the peer's. The Hello is still delivered (last words first), then
+  // the loss is reported at once, not after the 5 s send timeout.
+  const std::string endpoint = uniqueEndpoint();
+  com::Channel fem(com::ChannelOptions{endpoint, com::Side::Bind, 1.0, 1000, 0.1});
+  {
+    FakePeer dem(endpoint, com::Side::Connect);
+    dem.sendHello(protocol::Role::Dem, "short-lived");
+    std::this_thread::sleep_for(std::chrono::milliseconds(300));
+  }
+  std::this_thread::sleep_for(std::chrono::milliseconds(300));
+  com::Frame frame;
+  com::Timing timing;
+  BOOST_TEST((fem.receive(frame, 5.0, timing) == com::Status::Ok));
+  const auto start = std::chrono::steady_clock::now();
+  BOOST_TEST((fem.send(std::vector<std::uint8_t>(64, 0), 5.0, timing) == com::Status::PeerDisconnected));
+  BOOST_TEST(std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count() < 1.0);
+}
+
+BOOST_AUTO_TEST_CASE(stray_connections_while_the_owner_computes_stall_nothing) {
+  // 1500 stray connect-and-close pairs while the owner makes no channel call: 4500 monitor events, more
+  // than libzmq's inproc queue holds (about 2000), which would block its I/O thread (no data, no
+  // keepalives) and close(). The keepalive thread reads them; a message then arrives and close() returns.
+  const std::string endpoint = uniqueEndpoint();
+  com::Channel fem(com::ChannelOptions{endpoint, com::Side::Bind, 0.2, 1000, 0.1});
+  const std::string path = endpoint.substr(std::string("ipc://").size());
+  for (int i = 0; i < 1500; ++i) {
+    const int fd = ::socket(AF_UNIX, SOCK_STREAM, 0);
+    sockaddr_un address{};
+    address.sun_family = AF_UNIX;
+    std::strncpy(address.sun_path, path.c_str(), sizeof(address.sun_path) - 1);
+    BOOST_REQUIRE(::connect(fd, reinterpret_cast<sockaddr*>(&address), sizeof(address)) == 0);
+    ::close(fd);
+  }
+  FakePeer dem(endpoint, com::Side::Connect);
+  dem.sendHello(protocol::Role::Dem, "late");
+  com::Frame frame;
+  com::Timing timing;
+  BOOST_TEST((fem.receive(frame, 10.0, timing) == com::Status::Ok));
+  const auto start = std::chrono::steady_clock::now();
+  fem.close();
+  BOOST_TEST(std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count() < 3.0);
 }

@@ -15,6 +15,9 @@
 #include <mutex>
 #include <set>
 #include <sstream>
+#include <netinet/in.h>
+#include <netinet/tcp.h>
+#include <sys/socket.h>
 #include <sys/stat.h>
 #include <thread>
 #include <unistd.h>
@@ -142,7 +145,12 @@ public:
       zmq_close(socket_);
       throw Error(message);
     }
-    thread_ = std::thread([this] { serve(); });
+    try {
+      thread_ = std::thread([this] { serve(); });
+    } catch (...) {
+      zmq_close(socket_);  // an open socket would keep zmq_ctx_term() waiting forever
+      throw;
+    }
   }
   ~AdmissionHandler() { stop(); }
   AdmissionHandler(const AdmissionHandler&) = delete;
@@ -159,25 +167,35 @@ public:
   int refused() const { return refused_.load(); }
 
 private:
+  /// The log sink runs on this thread: whatever it throws must not end the process (std::terminate).
+  static void report(LogLevel level, const std::string& text) {
+    try {
+      log(level, text);
+    } catch (...) {
+    }
+  }
+
   void serve() {
     while (!stopping_) {
       zmq_pollitem_t item{socket_, 0, ZMQ_POLLIN, 0};
       if (zmq_poll(&item, 1, 50) <= 0 || !(item.revents & ZMQ_POLLIN)) continue;
       const std::vector<std::string> request = receiveParts(socket_);
       // version, request id, domain, address, routing id, mechanism, credentials (PLAIN: user, password)
-      if (request.size() < 2) continue;
+      // A REP socket must answer every request, or it never reads the next one: malformed ones get 400.
+      const std::string requestId = request.size() > 1 ? request[1] : "";
+      const std::string address = request.size() > 3 ? request[3] : "";
       std::string reason;
       if (request.size() != 8 || request[0] != "1.0" || request[5] != "PLAIN" || request[6] != participantUser) {
         reason = "not a railcosim participant";
       } else if (!sameSecret(request[7], password_)) {
         reason = "wrong run token";
-      } else if (ipc_ && ipcPeerUser(request[3]) != static_cast<long>(::geteuid())) {
+      } else if (ipc_ && ipcPeerUser(address) != static_cast<long>(::geteuid())) {
         // A process of another user that can reach the socket file (permissive directory) is refused.
-        reason = "process of another user (" + request[3] + ")";
+        reason = "process of another user (" + address + ")";
       } else if (admitted_) {
         reason = "a participant already joined this run";
       }
-      log(LogLevel::Debug, "bridge transport: admission request on " + endpoint_ + " from '" + request[3] + "'");
+      report(LogLevel::Debug, "bridge transport: admission request on " + endpoint_ + " from '" + address + "'");
       const bool admit = reason.empty();
       if (admit) {
         admitted_ = true;
@@ -185,11 +203,11 @@ private:
         // A refused ZeroMQ peer retries every 100 ms: the first refusals are logged, then one in a thousand.
         const int count = ++refused_;
         if (count <= 10 || count % 1000 == 0) {
-          log(LogLevel::Warning, "bridge transport: refused a connection on " + endpoint_ + " (" + reason + ")" +
-                                     (count >= 10 ? "; " + std::to_string(count) + " refused so far" : ""));
+          report(LogLevel::Warning, "bridge transport: refused a connection on " + endpoint_ + " (" + reason + ")" +
+                                        (count >= 10 ? "; " + std::to_string(count) + " refused so far" : ""));
         }
       }
-      const std::string reply[6] = {"1.0", request[1], admit ? "200" : "400", admit ? "OK" : reason, "", ""};
+      const std::string reply[6] = {"1.0", requestId, admit ? "200" : "400", admit ? "OK" : reason, "", ""};
       for (int i = 0; i < 6; ++i) zmq_send(socket_, reply[i].data(), reply[i].size(), i < 5 ? ZMQ_SNDMORE : 0);
     }
   }
@@ -253,6 +271,11 @@ struct Channel::Impl {
   std::condition_variable keepaliveWake;
   bool keepaliveStop = false;  // guarded by keepaliveMutex
 
+  void drainMonitor();
+  /// tcp: whether the peer's connection received bytes within `window` (a large message still arriving
+  /// holds its keepalives back in the same stream); false for ipc or an unknown connection.
+  bool bytesArrivedWithin(Clock::duration window) const;
+
   Clock::duration interval() const {
     return std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(options.heartbeatSeconds));
   }
@@ -267,7 +290,11 @@ struct Channel::Impl {
     std::unique_lock<std::mutex> wait(keepaliveMutex);
     while (!keepaliveWake.wait_for(wait, interval() / 4, [this] { return keepaliveStop; })) {
       std::unique_lock<std::mutex> use(socketMutex, std::try_to_lock);
-      if (use.owns_lock() && socket != nullptr) sendKeepaliveIfDue();
+      if (!use.owns_lock() || socket == nullptr) continue;
+      sendKeepaliveIfDue();
+      // Also while the owner computes: libzmq's I/O thread blocks on a full monitor queue (stray
+      // connections make three events each), and close() would wait for it forever.
+      drainMonitor();
     }
   }
   std::shared_ptr<BufferPool> pool = std::make_shared<BufferPool>();
@@ -375,6 +402,7 @@ void Channel::close() {
   }
   if (impl_->admission) impl_->admission->stop();
   if (impl_->socket != nullptr) {
+    impl_->drainMonitor();  // a full monitor queue would keep zmq_socket_monitor() below waiting
     zmq_socket_monitor(impl_->socket, nullptr, 0);
     zmq_close(impl_->socket);
     impl_->socket = nullptr;
@@ -408,12 +436,25 @@ bool Channel::peerDisconnected() {
 
 int Channel::refusedConnections() { return impl_->admission ? impl_->admission->refused() : 0; }
 
-void Channel::drainMonitor() {
-  if (impl_->monitor == nullptr) return;
+void Channel::drainMonitor() { impl_->drainMonitor(); }
+
+bool Channel::Impl::bytesArrivedWithin(Clock::duration window) const {
+  if (options.endpoint.rfind("tcp://", 0) != 0) return false;
+  const int connection = options.side == Side::Bind ? peerConnection
+                                                     : (openConnections.size() == 1 ? *openConnections.begin() : -1);
+  if (connection < 0 || openConnections.count(connection) == 0) return false;
+  tcp_info info{};
+  socklen_t length = sizeof(info);
+  if (::getsockopt(connection, IPPROTO_TCP, TCP_INFO, &info, &length) != 0) return false;
+  return std::chrono::milliseconds(info.tcpi_last_data_recv) < window;
+}
+
+void Channel::Impl::drainMonitor() {
+  if (monitor == nullptr) return;
   while (true) {
     zmq_msg_t eventFrame;
     zmq_msg_init(&eventFrame);
-    if (zmq_msg_recv(&eventFrame, impl_->monitor, ZMQ_DONTWAIT) < 0) {
+    if (zmq_msg_recv(&eventFrame, monitor, ZMQ_DONTWAIT) < 0) {
       zmq_msg_close(&eventFrame);
       return;
     }
@@ -428,35 +469,38 @@ void Channel::drainMonitor() {
     while (zmq_msg_more(&eventFrame)) {
       zmq_msg_close(&eventFrame);
       zmq_msg_init(&eventFrame);
-      if (zmq_msg_recv(&eventFrame, impl_->monitor, ZMQ_DONTWAIT) < 0) break;
+      if (zmq_msg_recv(&eventFrame, monitor, ZMQ_DONTWAIT) < 0) break;
     }
     zmq_msg_close(&eventFrame);
     const int connection = static_cast<int>(value);
     switch (event) {
     case ZMQ_EVENT_CONNECTED:
     case ZMQ_EVENT_ACCEPTED:
-      impl_->openConnections.insert(connection);
+      openConnections.insert(connection);
       break;
     case ZMQ_EVENT_HANDSHAKE_SUCCEEDED:
       // Binding side: only the admitted connection gets here (the admission handler lets one in).
-      impl_->seen = true;
-      log(LogLevel::Debug, "bridge transport: peer connected on " + impl_->options.endpoint);
+      seen = true;
+      log(LogLevel::Debug, "bridge transport: peer connected on " + options.endpoint);
       break;
     case ZMQ_EVENT_DISCONNECTED:
-      impl_->openConnections.erase(connection);
+      openConnections.erase(connection);
       // Binding side: only the connection the peer's messages came from counts, so refused or stray
       // connections that close never end a run. Connecting side: its one connection is the peer's.
-      if (impl_->options.side == Side::Bind ? connection == impl_->peerConnection : impl_->seen) {
-        impl_->disconnected = true;
+      if (options.side == Side::Bind ? connection == peerConnection : seen) {
+        disconnected = true;
       }
-      log(LogLevel::Debug, "bridge transport: connection dropped on " + impl_->options.endpoint);
+      // Binding side, the admitted peer gone before its first frame named its connection: no connection
+      // is left open after its handshake succeeded (strays never reach HANDSHAKE_SUCCEEDED).
+      if (options.side == Side::Bind && peerConnection < 0 && seen && openConnections.empty()) disconnected = true;
+      log(LogLevel::Debug, "bridge transport: connection dropped on " + options.endpoint);
       break;
     case ZMQ_EVENT_HANDSHAKE_FAILED_AUTH:
-      if (impl_->options.side == Side::Connect) impl_->refused = true;
+      if (options.side == Side::Connect) refused = true;
       break;
     case ZMQ_EVENT_HANDSHAKE_FAILED_PROTOCOL:
     case ZMQ_EVENT_HANDSHAKE_FAILED_NO_DETAIL:
-      log(LogLevel::Debug, "bridge transport: a connection on " + impl_->options.endpoint +
+      log(LogLevel::Debug, "bridge transport: a connection on " + options.endpoint +
                                " failed the ZeroMQ handshake (not a railcosim participant?)");
       break;
     default:
@@ -527,6 +571,8 @@ Status Channel::receive(Frame& frame, double timeoutSeconds, Timing& timing) {
         // reused file descriptor number is never mistaken for the peer's.
         drainMonitor();
         impl_->peerConnection = zmq_msg_get(&frame.impl_->message, ZMQ_SRCFD);
+        // Its DISCONNECTED, if already read above, came before the number was known.
+        if (impl_->openConnections.count(impl_->peerConnection) == 0) impl_->disconnected = true;
       }
       if (zmq_msg_size(&frame.impl_->message) != 0 || zmq_msg_more(&frame.impl_->message)) break;
       // A keepalive: the peer is alive; not a message for the caller.
@@ -565,7 +611,8 @@ Status Channel::receive(Frame& frame, double timeoutSeconds, Timing& timing) {
     // Silence counts from this call's start at the earliest: frames queued while the caller computed were
     // read above, so a live peer has always been heard within the last interval or so.
     const bool peerKnown = impl_->options.side == Side::Bind ? impl_->peerConnection >= 0 : impl_->seen;
-    if (peerKnown && now - std::max(impl_->lastHeard, start) > 3 * impl_->interval()) {
+    if (peerKnown && now - std::max(impl_->lastHeard, start) > 3 * impl_->interval() &&
+        !impl_->bytesArrivedWithin(3 * impl_->interval())) {
       timing.waitSeconds += secondsSince(start);
       return Status::PeerSilent;
     }
@@ -573,7 +620,9 @@ Status Channel::receive(Frame& frame, double timeoutSeconds, Timing& timing) {
       timing.waitSeconds += secondsSince(start);
       return Status::Timeout;
     }
-    const double slice = std::min(impl_->options.pollSliceSeconds, std::chrono::duration<double>(deadline - now).count());
+    // Bounded by a quarter interval too, so the waiting side's keepalives keep their pace.
+    const double slice = std::min({impl_->options.pollSliceSeconds, impl_->options.heartbeatSeconds / 4,
+                                   std::chrono::duration<double>(deadline - now).count()});
     zmq_pollitem_t items[2] = {{impl_->socket, 0, ZMQ_POLLIN, 0}, {impl_->monitor, 0, ZMQ_POLLIN, 0}};
     zmq_poll(items, 2, std::max(1L, static_cast<long>(slice * 1000.0)));
   }

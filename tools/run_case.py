@@ -3,26 +3,24 @@
 
 Usage: railcosim run cases/NAME [--smoke] [--out DIR] [--force] [--set key=value ...] [--time-limit SECONDS]
 
-A case folder holds case.toml and case.py. case.toml has
+A case folder holds case.toml, case.py (one subclass of railcosim.case.Case: the hooks the runner calls,
+described in python/railcosim/case.py) and usually dem.py. case.toml has
   name, expected_wall_s      the case's name; the default run's wall time (sets the default --time-limit)
-  [parameters]               every parameter with its default; the default's type is the parameter's type
+  [parameters] [coupling]    every parameter with its default; the default's type is the parameter's type.
+  [fem] [output]             [coupling], [fem] and [output] group the coupling, the FreeFEM structure and the
+                             reporting; a coupled case (one with [coupling]) gets the shared defaults of
+                             python/railcosim/parameters.py (SHARED_DEFAULTS) for what it does not set
   [limits]                   the parameters' ranges, e.g. fem_dt = {min_exclusive = 0}, scheme = {choices = [...]}
   [smoke]                    overrides for --smoke
+A parameter is named NAME or TABLE.NAME (names are unique across the tables), in --set, [smoke] and [limits].
 A rule in [limits] combines min, min_exclusive, max, max_exclusive (a number, or the name of another
 parameter: average_s = {max = "duration_s"}), choices (a list), divides (dem_dt = {divides = "fem_dt"}: a
 whole number of steps) and force (the name of a boolean parameter that lifts the max bounds when true).
 Parameters shared by the cases (fem_dt, dem_dt, scheme, duration_s, ...) have their rules in
-tools/case_parameters.py (SHARED_LIMITS); a [limits] entry replaces them. Every parameter but a boolean must
-have a rule ({} for any value of its type), NaN and inf are always refused, and a bad value or a misspelt
-key is refused before anything starts (exit 2).
-
-case.py defines
-  fem_command(params, endpoint, out) -> argv list      the FreeFEM participant
-  dem_command(params, endpoint, out) -> argv list      the YADE participant (default: the folder's dem.py)
-  reference_runs(params, out) -> [(name, argv), ...]   solver-only runs to compare with (default: none)
-  postprocess(params, out) -> dict                     metrics, reference, relative_error, checks
-  check_parameters(params) -> [message, ...]           optional: rules [limits] cannot say (a critical step)
-Each check is {name, value, limit} and passes when value <= limit; the runner marks it.
+python/railcosim/parameters.py (SHARED_LIMITS); a [limits] entry replaces them. Every parameter but a boolean
+must have a rule ({} for any value of its type), NaN and inf are always refused, and a bad value or a misspelt
+key is refused before anything starts (exit 2). Each check of the post-processing is {name, value, limit} and
+passes when value <= limit; the runner marks it.
 
 A run is written to OUT.partial-XXXXXXXX beside OUT and renamed to OUT at the end. A run that did not
 finish (failed, interrupted, time limit) never replaces an existing OUT: its folder is kept and named.
@@ -37,7 +35,6 @@ Exit codes: 0 ok, 1 failed, 2 refused (command line, case, values), 3 a check fa
 """
 import argparse
 import contextlib
-import importlib.util
 import json
 import math
 import os
@@ -49,12 +46,11 @@ import sys
 import tempfile
 import threading
 import time
-import tomllib
 import traceback
 
-import case_parameters
-import railcosim_results as results
-from case_parameters import ParameterError
+from railcosim import parameters
+from railcosim.case import CaseError, load_case
+from railcosim.parameters import ParameterError
 
 # After one solver fails, how long the other may take to notice (the bridge reports a lost peer within a
 # few seconds) before it is stopped.
@@ -69,10 +65,6 @@ CPU_SAMPLE_S = 1.0
 POLL_S = 0.1
 EXIT_FAILED, EXIT_REFUSED, EXIT_CHECKS, EXIT_TIME_LIMIT = 1, 2, 3, 4
 STOP_SIGNALS = (signal.SIGTERM, signal.SIGHUP, signal.SIGINT)
-
-
-class CaseError(Exception):
-    """A problem with the case definition or the command line, reported without a traceback."""
 
 
 class Stop(BaseException):
@@ -317,23 +309,6 @@ def wait_reference(solver, guard):
         time.sleep(POLL_S)
 
 
-def load_case(case_dir):
-    toml_path = os.path.join(case_dir, "case.toml")
-    py_path = os.path.join(case_dir, "case.py")
-    for path in (toml_path, py_path):
-        if not os.path.isfile(path):
-            raise CaseError(f"{case_dir} is not a case folder: {os.path.basename(path)} is missing")
-    with open(toml_path, "rb") as f:
-        try:
-            config = tomllib.load(f)
-        except tomllib.TOMLDecodeError as e:
-            raise CaseError(f"{toml_path}: {e}") from e
-    spec = importlib.util.spec_from_file_location("railcosim_case", py_path)
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return config, module
-
-
 def make_partial_folder(out):
     """OUT.partial-XXXXXXXX beside OUT, so that the final rename stays on one file system (atomic)."""
     parent = os.path.dirname(out)
@@ -439,9 +414,8 @@ class Run:
         say(f"[run] case {self.name}{' (smoke)' if self.args.smoke else ''} -> {self.out}")
         say(f"[run] endpoint {endpoint}; time limit {self.time_limit:.0f} s" if self.time_limit
             else f"[run] endpoint {endpoint}; no time limit")
-        dem_command = getattr(self.case, "dem_command", results.standard_dem_command)
         commands = [("fem", self.case.fem_command(self.params, endpoint, self.partial)),
-                    ("dem", dem_command(self.params, endpoint, self.partial))]
+                    ("dem", self.case.dem_command(self.params, endpoint, self.partial))]
         for name, argv in commands:
             if not self._start(self.solvers, name, argv, env):
                 return
@@ -490,7 +464,7 @@ class Run:
     def _run_references(self):
         env = self._environment()
         self.stage = "reference runs"
-        for ref_name, argv in getattr(self.case, "reference_runs", lambda p, o: [])(self.params, self.partial):
+        for ref_name, argv in self.case.reference_runs(self.params, self.partial):
             self.stage = f"reference run '{ref_name}'"
             say(f"[run] reference run '{ref_name}'")
             if not self._start(self.references, ref_name, argv, env, echo=False):
@@ -596,11 +570,11 @@ def main(argv, guard):
         raise CaseError(f"no such case folder: {args.case}")
     config, case = load_case(case_dir)
     name = config.get("name", os.path.basename(case_dir))
-    params = case_parameters.resolve_parameters(config, args.smoke, args.set)
-    problems = case_parameters.check_parameters(params, config, case)
+    params = parameters.resolve_parameters(config, args.smoke, args.set)
+    problems = parameters.check_parameters(params, config, case)
     if problems:
         raise ParameterError("\n".join(problems))
-    time_limit = args.time_limit if args.time_limit is not None else case_parameters.default_time_limit(config, params)
+    time_limit = args.time_limit if args.time_limit is not None else parameters.default_time_limit(config, params)
     params["smoke"] = args.smoke
     params["case_dir"] = case_dir
 

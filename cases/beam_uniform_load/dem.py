@@ -1,20 +1,14 @@
 # DEM participant of the beam case: spheres settle on the coupled top face of the FEM beam.
 # Run by `railcosim run` as: railcosim yade dem.py PARAMETERS.json ENDPOINT OUTDIR
-import json
 import math
-import os
 import random
-import sys
-import time
 
 import numpy as np
 
-import railcosim_results as results
+from railcosim.dem import CoupledDem
 
-params_path, endpoint, out = sys.argv[1], sys.argv[2], sys.argv[3]
-with open(params_path) as f:
-    p = json.load(f)
-
+dem = CoupledDem()  # the run's parameters, endpoint and results folder, from `railcosim run`
+p = dem.parameters
 L, W, H = p["beam_length"], p["beam_width"], p["beam_height"]
 R = p["sphere_radius"]
 
@@ -67,10 +61,7 @@ sphere_ids = [O.bodies.append(utils.sphere(c, R, material=particle_mat)) for c i
 total_mass = sum(O.bodies[i].state.mass for i in sphere_ids)
 
 # 4. Engines: the coupling engine sits after the contact loop and before the integrator.
-coupling = FemCouplingEngine(endpoint=endpoint, material=O.materials[beam_mat], scheme=p["scheme"],
-                             averageForces=p["average_forces"], contactModel=p["contact_model"],
-                             restitution=p["restitution"], timeout=60.0, label="coupling",
-                             **results.implicit_options(p))
+coupling = dem.coupling_engine(material=O.materials[beam_mat], restitution=p["restitution"])
 O.engines = [
     ForceResetter(),
     InsertionSortCollider([Bo1_Sphere_Aabb(), Bo1_Facet_Aabb(), Bo1_Wall_Aabb()]),
@@ -83,45 +74,26 @@ O.engines = [
     coupling,
     NewtonIntegrator(damping=p["local_damping"], gravity=(0, 0, -9.81)),
 ]
-O.dt = p["dem_dt_safety"] * PWaveTimeStep()
-coupling.connect()  # receives the beam's top surface, inserts its facets, sets O.dt = fem_dt / subcycles
-n = coupling.subcycles
-windows = int(round(p["duration_s"] / coupling.femDt))
-print(f"{count} spheres, {total_mass:.3f} kg, radius {R} m; {len(coupling.triangles)} surface triangles "
-      f"({coupling.contactModel} contacts); "
-      f"O.dt={O.dt:.3e} s, {n} DEM steps per FEM step, {windows} windows", flush=True)
-
-# 5. One record per window: interface force, kinetic energy, nodal forces and kinematics, written to
-#    dem_timeseries.h5 as the run goes (memory stays flat however long the run).
-recorder = results.DemRecorder(out)
+O.dt = dem.time_step()
+dem.connect()  # receives the beam's top surface, inserts its facets, sets O.dt = fem_dt / subcycles
+print(f"{count} spheres, {total_mass:.3f} kg, radius {R} m", flush=True)
 
 
+# 5. Run the windows, one record per window: interface force, kinetic energy, nodal forces and kinematics.
 def particles_below_surface():
     """Spheres whose centre fell below the top face: they passed through the coupled surface."""
     return sum(1 for i in sphere_ids if O.bodies[i].state.pos[2] < H - R)
 
-wall_start = time.monotonic()
-
 
 def record():
-    recorder.append(time=O.time, interface_force=coupling.totalForce, interface_work_dem=coupling.interfaceWorkDem,
-                    interface_work_fem=coupling.interfaceWorkFem, kinetic_energy=utils.kineticEnergy(),
-                    nodal_forces=coupling.nodalForces, node_positions=coupling.nodePositions,
-                    node_velocities=coupling.nodeVelocities, particles_below_surface=particles_below_surface())
-    if len(recorder) % max(1, windows // 10) == 0:
-        print(f"t={O.time:.4f} s  window {coupling.window}/{windows}  interface Fz={coupling.totalForce[2]:.2f} N "
-              f"(weight {total_mass * 9.81:.2f} N)  kinetic energy {recorder.last['kinetic_energy']:.3e} J  "
-              f"{time.monotonic() - wall_start:.1f} s", flush=True)
+    return dict(interface_force=coupling.totalForce, kinetic_energy=utils.kineticEnergy(),
+                nodal_forces=coupling.nodalForces, node_positions=coupling.nodePositions,
+                node_velocities=coupling.nodeVelocities, particles_below_surface=particles_below_surface())
 
 
-O.engines = O.engines + [PyRunner(command="record()", iterPeriod=n, initRun=False)]
-# One extra DEM step so that the last window's forces are exchanged at its end.
-O.run(windows * n + 1, True)
-coupling.finalize()
-wall = time.monotonic() - wall_start
-
-info = {**results.coupling_info(coupling), "steps": O.iter, "dt": O.dt, "particles": count, "total_particle_mass_kg": total_mass,
-        "wall_time_s": wall, "final_kinetic_energy_j": utils.kineticEnergy(), "particles_below_surface": particles_below_surface()}
-results.save_dem_outputs(out, recorder, info, triangles=np.asarray([tuple(t) for t in coupling.triangles], dtype=int))
-print(f"done: {O.iter} steps in {wall:.1f} s; bridge {coupling.bridgeTime:.3f} s over {coupling.exchanges} exchanges",
-      flush=True)
+dem.run(record, progress=lambda last: f"interface Fz={last['interface_force'][2]:.2f} N (weight {total_mass * 9.81:.2f} N)  "
+                                      f"kinetic energy {last['kinetic_energy']:.3e} J")
+# 6. What the post-processing reads (dem_info.json): the bed, its final state, and the surface triangles.
+dem.save(particles=count, total_particle_mass_kg=total_mass, final_kinetic_energy_j=utils.kineticEnergy(),
+         particles_below_surface=particles_below_surface(),
+         arrays={"triangles": np.asarray([tuple(t) for t in coupling.triangles], dtype=int)})

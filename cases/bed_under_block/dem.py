@@ -1,19 +1,13 @@
 # DEM participant of the block case: a bed of spheres settles in a box, then carries the coupled block.
 # Run by `railcosim run` as: railcosim yade dem.py PARAMETERS.json ENDPOINT OUTDIR
-import json
 import math
-import os
 import random
-import sys
 import time
 
-import numpy as np
+from railcosim.dem import CoupledDem
 
-import railcosim_results as results
-
-params_path, endpoint, out = sys.argv[1], sys.argv[2], sys.argv[3]
-with open(params_path) as f:
-    p = json.load(f)
+dem = CoupledDem()  # the run's parameters, endpoint and results folder, from `railcosim run`
+p = dem.parameters
 L, W, R = p["block_length"], p["block_width"], p["sphere_radius"]
 
 # 1. Materials and a box: frictionless side walls at the block's footprint, a floor below the bed.
@@ -49,7 +43,7 @@ O.engines = [ForceResetter(), InsertionSortCollider([Bo1_Sphere_Aabb(), Bo1_Face
              InteractionLoop([Ig2_Sphere_Sphere_ScGeom(), Ig2_Facet_Sphere_ScGeom(), Ig2_Wall_Sphere_ScGeom()],
                              [mindlin], [Law2_ScGeom_MindlinPhys_Mindlin()]),
              NewtonIntegrator(damping=0.0, gravity=(0, 0, -9.81))]
-O.dt = p["dem_dt_safety"] * PWaveTimeStep()
+O.dt = dem.time_step()
 settle_start = time.monotonic()
 O.run(int(p["settle_s"] / O.dt), True)
 bed_top = max(O.bodies[i].state.pos[2] for i in spheres) + R
@@ -63,36 +57,21 @@ for i in spheres + [floor]:
     O.bodies[i].state.refPos = O.bodies[i].state.pos
 O.engines[1].doSort = True  # the collider must see the bed at its new place
 
-# 4. Couple: the block's bottom face becomes facets (or hierarchy contacts); the block is pressed down by FEM.
-coupling = FemCouplingEngine(endpoint=endpoint, material=O.materials[block_mat], scheme=p["scheme"],
-                             averageForces=p["average_forces"], contactModel=p["contact_model"],
-                             restitution=p["restitution"], timeout=60.0, label="coupling",
-                             **results.implicit_options(p))
+# 4. Couple: the block's bottom face becomes facets (or mesh contacts); the block is pressed down by FEM.
+coupling = dem.coupling_engine(material=O.materials[block_mat], restitution=p["restitution"])
 O.engines = O.engines[:3] + [coupling] + O.engines[3:]
-coupling.connect()
-n, windows = coupling.subcycles, int(round(p["duration_s"] / coupling.femDt))
+dem.connect()  # records from here on the FEM clock, which starts at the handshake
 load = p["load_pressure"] * L * W
-print(f"coupled: O.dt={O.dt:.2e} s, {n} DEM steps per FEM step, {windows} windows, load {load:.1f} N", flush=True)
-
-recorder = results.DemRecorder(out)  # dem_timeseries.h5, written as the run goes
-wall_start = time.monotonic()
-coupling_start = O.time  # the FEM clock starts at the handshake; record on the same clock
+print(f"{len(spheres)} spheres under a load of {load:.1f} N", flush=True)
 
 
+# 5. Run the windows, one record per window: the force on the block, kinetic energy, the floor's reaction.
 def record():
-    recorder.append(time=O.time - coupling_start, interface_force=coupling.totalForce,
-                    interface_work_dem=coupling.interfaceWorkDem, interface_work_fem=coupling.interfaceWorkFem,
-                    kinetic_energy=utils.kineticEnergy(), floor_force_z=O.forces.f(floor)[2])
-    if len(recorder) % max(1, windows // 8) == 0:
-        print(f"t={O.time - coupling_start:.4f} s  window {coupling.window}/{windows}  block force {coupling.totalForce[2]:.1f} N "
-              f"(load {load:.1f} N)  kinetic energy {recorder.last['kinetic_energy']:.2e} J  "
-              f"{time.monotonic() - wall_start:.1f} s", flush=True)
+    return dict(interface_force=coupling.totalForce, kinetic_energy=utils.kineticEnergy(),
+                floor_force_z=O.forces.f(floor)[2])
 
 
-O.engines = O.engines + [PyRunner(command="record()", iterPeriod=n, initRun=False)]
-O.run(windows * n + 1, True)
-coupling.finalize()
-info = {**results.coupling_info(coupling), "steps": O.iter, "dt": O.dt, "particles": len(spheres),
-        "wall_time_s": time.monotonic() - wall_start, "load_n": load,
-        "final_kinetic_energy_j": utils.kineticEnergy()}
-results.save_dem_outputs(out, recorder, info)
+dem.run(record, progress=lambda last: f"block force {last['interface_force'][2]:.1f} N (load {load:.1f} N)  "
+                                      f"kinetic energy {last['kinetic_energy']:.2e} J")
+# 6. What the post-processing reads (dem_info.json): the bed, the load and the final state.
+dem.save(particles=len(spheres), load_n=load, final_kinetic_energy_j=utils.kineticEnergy())

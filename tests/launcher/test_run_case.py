@@ -22,9 +22,10 @@ HERE = os.path.dirname(os.path.abspath(__file__))
 ROOT = os.path.dirname(os.path.dirname(HERE))
 RUNNER = os.path.join(ROOT, "tools", "run_case.py")
 CASE = os.path.join(HERE, "standin_case")
-sys.path.insert(0, os.path.join(ROOT, "tools"))
-import case_parameters  # noqa: E402  (needs the path above)
-import run_case  # noqa: E402
+PYTHONPATH = os.path.join(ROOT, "python")  # the railcosim package, as `railcosim` sets it
+sys.path[:0] = [PYTHONPATH, os.path.join(ROOT, "tools")]
+import run_case  # noqa: E402  (needs the path above)
+from railcosim import parameters as case_parameters  # noqa: E402
 
 # Waits for something that takes well under a second on an idle machine (a Python start, a run of the stand-ins).
 SLOW_S = 30.0
@@ -94,7 +95,7 @@ class LauncherTestCase(unittest.TestCase):
             argv = argv[:-2]
         for item in sets:
             argv += ["--set", item]
-        env = dict(os.environ, PYTHONPATH=os.path.join(ROOT, "tools"), RAILCOSIM_ROOT=ROOT)
+        env = dict(os.environ, PYTHONPATH=PYTHONPATH, RAILCOSIM_ROOT=ROOT)
         self.stdout_path, self.stderr_path = os.path.join(self.tmp, "run.out"), os.path.join(self.tmp, "run.err")
         with open(self.stdout_path, "w") as out, open(self.stderr_path, "w") as err:
             self.runner = subprocess.Popen(argv + list(extra), stdout=out, stderr=err, stdin=subprocess.DEVNULL,

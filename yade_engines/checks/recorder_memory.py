@@ -9,7 +9,7 @@ import time
 
 import numpy as np
 
-import railcosim_results as results
+from railcosim import results
 
 WINDOWS = int(sys.argv[1]) if len(sys.argv) > 1 else 100_000
 NODES = 63        # interface nodes of the beam case's top face (20x2 P2 grid)

@@ -4,6 +4,8 @@ import os
 import sys
 import time
 
+from railcosim.case import Case
+
 HERE = os.path.dirname(os.path.abspath(__file__))
 SOLVER = os.path.join(os.path.dirname(HERE), "standin_solver.py")
 
@@ -15,22 +17,20 @@ def _command(p, name, behaviour, endpoint):
             str(p["fail_after_s"])]
 
 
-def fem_command(p, endpoint, out):
-    return _command(p, "fem", p["fem_behaviour"], endpoint)
+class StandinCase(Case):
+    def fem_command(self, p, endpoint, out):
+        return _command(p, "fem", p["fem_behaviour"], endpoint)
 
+    def dem_command(self, p, endpoint, out):
+        return _command(p, "dem", p["dem_behaviour"], endpoint)
 
-def dem_command(p, endpoint, out):
-    return _command(p, "dem", p["dem_behaviour"], endpoint)
+    def reference_runs(self, p, out):
+        if p["reference_behaviour"] == "none":
+            return []
+        return [("reference", _command(p, "reference", p["reference_behaviour"], "none"))]
 
-
-def reference_runs(p, out):
-    if p["reference_behaviour"] == "none":
-        return []
-    return [("reference", _command(p, "reference", p["reference_behaviour"], "none"))]
-
-
-def postprocess(p, out):
-    with open(os.path.join(p["marker_dir"], "postprocess.json"), "w") as f:
-        json.dump({"pid": os.getpid()}, f)
-    time.sleep(p["post_sleep_s"])
-    return {"metrics": {"lines": p["lines"]}, "checks": [{"name": "stand-in check", "value": 0.0, "limit": 1.0}]}
+    def postprocess(self, p, out):
+        with open(os.path.join(p["marker_dir"], "postprocess.json"), "w") as f:
+            json.dump({"pid": os.getpid()}, f)
+        time.sleep(p["post_sleep_s"])
+        return {"metrics": {"lines": p["lines"]}, "checks": [{"name": "stand-in check", "value": 0.0, "limit": 1.0}]}

@@ -1,6 +1,35 @@
-"""A case's parameters: defaults from case.toml, --smoke and --set overrides, and their declared types and ranges."""
+"""A case's parameters: case.toml tables with the shared defaults, --smoke and --set overrides, types and ranges."""
 import difflib
 import math
+
+# The case.toml tables that hold parameters. Their names form one flat namespace (the parameters.json the
+# solvers read is flat): a name is unique across the tables, and `--set NAME=VALUE` or `--set TABLE.NAME=VALUE`
+# both reach it; [smoke] and [limits] name parameters the same two ways.
+#   parameters   the case's own physics: particles, loads, durations, the limits of its checks
+#   coupling     the coupling engine and the time steps: scheme, fem_dt, dem_dt or dem_dt_safety, ...
+#   fem          the FreeFEM structure: dimensions, mesh, material, damping, loads (case.py turns them into options)
+#   output       what is reported: average_s (the final span of the averaged figures), progress_lines
+PARAMETER_TABLES = ("parameters", "coupling", "fem", "output")
+OTHER_KEYS = ("name", "expected_wall_s", "limits", "smoke")
+
+# Defaults shared by every coupled case (one with a [coupling] table); a case's own value replaces them.
+# The coupling values are FemCouplingEngine's defaults, so a case states only what it chooses.
+SHARED_DEFAULTS = {
+    "coupling": {
+        "average_forces": False,        # True: send the window average of the nodal forces (impulse-conserving)
+        "contact_model": "facets",      # "facets" (YADE facets, the scene's contact law) or "meshContacts"
+                                        # (the engine's facet > edge > vertex contacts, Hertz-Mindlin)
+        "implicit_tolerance": 1.0e-3,   # implicit scheme: rms position residual / rms interface displacement
+        "implicit_max_iterations": 30,  # implicit scheme: passes per window before it is accepted unconverged
+        "implicit_relaxation": 0.5,     # implicit scheme: first relaxation factor of a window
+        "aitken": True,                 # implicit scheme: dynamic Aitken relaxation
+    },
+    "output": {
+        "progress_lines": 10,           # progress lines each solver prints over the run
+    },
+}
+# What a coupled case must state itself: there is no default a case could rely on.
+REQUIRED = {"coupling": ("scheme", "fem_dt")}
 
 # Rules for parameters that mean the same in every case (their meaning is fixed by the coupling engine or the
 # FEM solver, not by the case). A case's [limits] entry for the same name replaces the rule here.
@@ -14,7 +43,8 @@ SHARED_LIMITS = {
     # A fraction of YADE's P-wave step, the critical step estimate: above 1 only on purpose.
     "dem_dt_safety": {"min_exclusive": 0, "max": 1, "force": "force_dem_dt"},
     "scheme": {"choices": ["justInTime", "predictive", "implicit"]},
-    "contact_model": {"choices": ["facets", "hierarchy"]},
+    # "hierarchy": the former name of "meshContacts", still accepted.
+    "contact_model": {"choices": ["facets", "meshContacts", "hierarchy"]},
     "restitution": {"min_exclusive": 0, "max": 1},  # 0 would make the Hertz-Mindlin damping log(0)
     "friction": {"min": 0},
     "local_damping": {"min": 0, "max_exclusive": 1},
@@ -25,10 +55,11 @@ SHARED_LIMITS = {
     "implicit_tolerance": {"min_exclusive": 0},
     "implicit_max_iterations": {"min": 1},
     "implicit_relaxation": {"min_exclusive": 0, "max": 1},
+    "progress_lines": {"min": 1},
 }
 
 RULE_KEYS = ("min", "min_exclusive", "max", "max_exclusive", "choices", "divides", "force")
-SHARED_SOURCE = "shared rule in tools/case_parameters.py"
+SHARED_SOURCE = "shared rule in python/railcosim/parameters.py"
 _COMPARISONS = {"min": (lambda v, b: v >= b, ">="), "min_exclusive": (lambda v, b: v > b, ">"),
                 "max": (lambda v, b: v <= b, "<="), "max_exclusive": (lambda v, b: v < b, "<")}
 # dem_dt divides fem_dt when their ratio is a whole number to this relative precision (decimal inputs such as
@@ -64,33 +95,87 @@ def convert_like(key, text, default):
         raise ParameterError(f"--set {key}={text}: expected a {type(default).__name__} like the default {default!r}") from None
 
 
+def case_defaults(config):
+    """({name: default}, {name: table}) of every parameter of a case: its tables, and for a coupled case the
+    shared defaults it does not set. Refuses what would silently lose a value: an unknown table (a misspelt
+    [couplng]), a name in two tables, a table name used as a parameter name, a coupled case without a required key."""
+    for key, value in config.items():
+        if key not in PARAMETER_TABLES + OTHER_KEYS:
+            raise ParameterError(f"case.toml: unknown entry '{key}'{nearest(key, PARAMETER_TABLES + OTHER_KEYS)}; "
+                                 f"the tables of parameters are {', '.join(f'[{t}]' for t in PARAMETER_TABLES)}")
+        if key in PARAMETER_TABLES + ("limits", "smoke") and not isinstance(value, dict):
+            raise ParameterError(f"case.toml: '{key}' must be a table ([{key}]), got {value!r}")
+    coupled = "coupling" in config
+    defaults, tables = {}, {}
+    for table in PARAMETER_TABLES:
+        entries = dict(SHARED_DEFAULTS.get(table, {})) if coupled else {}
+        entries.update(config.get(table, {}))
+        for name, value in entries.items():
+            if name in tables:
+                raise ParameterError(f"case.toml: parameter '{name}' is in both [{tables[name]}] and [{table}]; "
+                                     "a name must be unique across the tables")
+            if name in PARAMETER_TABLES:
+                raise ParameterError(f"case.toml [{table}]: '{name}' is the name of a table, not a parameter")
+            defaults[name], tables[name] = value, table
+    if coupled:
+        for table, names in REQUIRED.items():
+            for name in names:
+                if tables.get(name) != table:
+                    raise ParameterError(f"case.toml: a coupled case sets {name} in its [{table}] table (no shared default)")
+    return defaults, tables
+
+
+def parameter_name(key, tables, where):
+    """The parameter a key names, NAME or TABLE.NAME; ParameterError naming `where` and the nearest names."""
+    table, dot, name = key.rpartition(".")
+    if dot and table in PARAMETER_TABLES:
+        if tables.get(name) == table:
+            return name
+        known = [n for n, t in tables.items() if t == table]
+        elsewhere = f" (it is in [{tables[name]}])" if name in tables else nearest(name, known)
+        raise ParameterError(f"{where} unknown parameter '{key}': [{table}] has no '{name}'{elsewhere}")
+    if key in tables:
+        return key
+    raise ParameterError(f"{where} unknown parameter '{key}'{nearest(key, list(tables))}; the parameters are those of the "
+                         "case.toml tables " + ", ".join(f"[{t}]" for t in PARAMETER_TABLES if t in tables.values())
+                         + (" and their shared defaults" if "coupling" in tables.values() else ""))
+
+
+def _named_entries(entries, tables, where):
+    """{parameter: value} of a [smoke] or [limits] table, whose keys are NAME or TABLE.NAME (TOML reads the
+    dotted key coupling.fem_dt as a nested table {coupling: {fem_dt: ...}})."""
+    named = {}
+    for key, value in entries.items():
+        if key in PARAMETER_TABLES and isinstance(value, dict):
+            pairs = [(f"{key}.{name}", inner) for name, inner in value.items()]
+        else:
+            pairs = [(key, value)]
+        for full_key, inner in pairs:
+            named[parameter_name(full_key, tables, where)] = inner
+    return named
+
+
 def resolve_parameters(config, smoke, assignments):
-    """case.toml [parameters], then its [smoke] table when smoke, then each KEY=VALUE of --set."""
-    params = dict(config.get("parameters", {}))
+    """The case's defaults (case_defaults), then its [smoke] table when smoke, then each KEY=VALUE of --set."""
+    defaults, tables = case_defaults(config)
+    params = dict(defaults)
     if smoke:
-        for key, value in config.get("smoke", {}).items():
-            if key not in params:
-                raise ParameterError(f"case.toml [smoke] sets unknown parameter '{key}'{nearest(key, list(params))}")
-            params[key] = value
+        params.update(_named_entries(config.get("smoke", {}), tables, "case.toml [smoke] sets"))
     for item in assignments:
         if "=" not in item:
             raise ParameterError(f"--set needs key=value, got '{item}'")
         key, text = item.split("=", 1)
-        if key not in params:
-            raise ParameterError(f"--set: unknown parameter '{key}'{nearest(key, list(params))}; "
-                                 "the parameters are the [parameters] table of the case's case.toml")
-        params[key] = convert_like(key, text, params[key])
+        name = parameter_name(key, tables, "--set:")
+        params[name] = convert_like(key, text, params[name])
     return params
 
 
 def case_limits(config):
     """{name: (rule, source)} for every parameter of the case: its [limits] entry, else the shared rule.
     Refuses declarations that do not fit the parameters (a case author's typo must not disable a check)."""
-    defaults = config.get("parameters", {})
-    declared = config.get("limits", {})
+    defaults, tables = case_defaults(config)
+    declared = _named_entries(config.get("limits", {}), tables, "case.toml [limits] declares")
     for name, rule in declared.items():
-        if name not in defaults:
-            raise ParameterError(f"case.toml [limits] declares unknown parameter '{name}'{nearest(name, list(defaults))}")
         if not isinstance(rule, dict):
             raise ParameterError(f"case.toml [limits] {name}: expected a table such as {{min_exclusive = 0}}, got {rule!r}")
     limits = {}
@@ -144,10 +229,10 @@ def _divides_problem(name, value, other, whole):
             f"the run would use another step. Nearest: {' or '.join(f'{name}={c:.12g}' for c in choices)}")
 
 
-def check_parameters(params, config, case_module=None):
+def check_parameters(params, config, case=None):
     """Problems with the parameter values, one line each ([] when all are valid): types, non-finite numbers,
-    [limits] / shared rules, then the case's own check_parameters(p) -> [message] if case.py defines one."""
-    defaults = config.get("parameters", {})
+    [limits] / shared rules, then the case's own check_parameters(p) -> [message] (railcosim.case.Case)."""
+    defaults, _ = case_defaults(config)
     limits = case_limits(config)
     problems, bad = [], set()
     for name, default in defaults.items():
@@ -186,8 +271,8 @@ def check_parameters(params, config, case_module=None):
             if problem:
                 problems.append(problem)
                 bad.add(name)
-    if not problems and case_module is not None and hasattr(case_module, "check_parameters"):
-        problems += list(case_module.check_parameters(params))
+    if not problems and case is not None:
+        problems += list(case.check_parameters(params))
     return problems
 
 
@@ -198,6 +283,6 @@ def default_time_limit(config, params):
     expected = config.get("expected_wall_s")
     if expected is None:
         return 3600.0
-    default_duration = config.get("parameters", {}).get("duration_s")
+    default_duration = case_defaults(config)[0].get("duration_s")
     scale = max(1.0, params["duration_s"] / default_duration) if default_duration and "duration_s" in params else 1.0
     return max(600.0, 20.0 * float(expected) * scale)

@@ -1,28 +1,11 @@
-"""Shared result I/O for case post-processing: JSON/CSV reading, HDF5 time series, history plots."""
+"""Results of a case run: the DEM recorder and dem_info.json, JSON/CSV reading, HDF5 time series, history plots,
+and the figures every case reports (participant summary, interface energy, force fluctuation)."""
 import csv
 import json
 import operator
 import os
 
 import numpy as np
-
-
-def box_solver():
-    """Path of the FreeFEM box elastodynamics solver used by the cases."""
-    return os.path.join(os.environ["RAILCOSIM_ROOT"], "freefem_scripts", "solvers", "box_elastodynamics.edp")
-
-
-def standard_dem_command(p, endpoint, out):
-    """The case's dem.py run by YADE with the railcosim engines: dem.py PARAMETERS.json ENDPOINT OUTDIR."""
-    return [os.path.join(os.environ["RAILCOSIM_ROOT"], "railcosim"), "yade", os.path.join(p["case_dir"], "dem.py"),
-            os.path.join(out, "parameters.json"), endpoint, out]
-
-
-def implicit_options(p):
-    """FemCouplingEngine keyword arguments of the implicit scheme from a case's parameters
-    (implicit_tolerance, implicit_max_iterations, implicit_relaxation, aitken in case.toml)."""
-    return {"implicitTolerance": float(p["implicit_tolerance"]), "implicitMaxIterations": int(p["implicit_max_iterations"]),
-            "implicitRelaxation": float(p["implicit_relaxation"]), "aitken": bool(p["aitken"])}
 
 
 def coupling_info(coupling):
@@ -162,6 +145,18 @@ def read_dem_series(out):
     import h5py
     with h5py.File(path, "r") as f:
         return {name: f[name][()] for name in f}
+
+
+def read_coupled_run(out):
+    """(dem, fem, monitor, series) of a coupled run's folder: dem_info.json, fem/fem_summary.json,
+    fem/fem_monitor.csv (columns) and the DEM time series (read_dem_series)."""
+    return (read_json(os.path.join(out, "dem_info.json")), read_json(os.path.join(out, "fem", "fem_summary.json")),
+            read_csv_columns(os.path.join(out, "fem", "fem_monitor.csv")), read_dem_series(out))
+
+
+def final_span(times, span):
+    """Mask of the records in the final `span` seconds (the span averaged figures are taken over)."""
+    return times >= times[-1] - span
 
 
 def participant_summary(dem, fem):

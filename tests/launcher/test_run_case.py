@@ -1,6 +1,7 @@
 #!/usr/bin/python3
 """Tests of the case launcher tools/run_case.py with stand-in solvers (standin_case/): signals, results folder,
-time limit, frozen solver, parameter checks, endpoint folder and token, line-buffered output.
+time limit, frozen solver, parameter checks, the case contract of python/railcosim (tables, shared defaults, hooks,
+commands), endpoint folder and token, line-buffered output.
 
 Timing limits assume a loaded 2-core machine (a compiler on both cores): each wait for something to happen
 is 20-30 s, far above what it takes (< 1 s idle), so that only a missing behaviour fails; the one tight
@@ -17,6 +18,7 @@ import sys
 import tempfile
 import time
 import unittest
+import unittest.mock
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 ROOT = os.path.dirname(os.path.dirname(HERE))
@@ -366,6 +368,92 @@ class ValuesTest(LauncherTestCase):
         self.assertEqual(self.summary()["resolved"], {"dem_dt": 0.001, "dem_steps_per_window": 10})
         with open(os.path.join(self.out, "parameters.json")) as f:
             self.assertEqual(json.load(f)["resolved"]["dem_dt"], 0.001)
+
+
+class CaseContractTest(unittest.TestCase):
+    """The railcosim package's side of a case: case.toml tables and shared defaults, names in --set, [smoke] and
+    [limits], the Case hooks, and the commands built from them. No solver runs."""
+
+    COUPLED = {"name": "t", "parameters": {"duration_s": 1.0, "sphere_radius": 0.01},
+               "coupling": {"scheme": "predictive", "fem_dt": 0.1, "dem_dt": 0.01},
+               "fem": {"block_length": 0.2}, "output": {"average_s": 0.5},
+               "limits": {"block_length": {"min_exclusive": 0}}}
+
+    def config(self, **tables):
+        config = json.loads(json.dumps(self.COUPLED))
+        config.update(tables)
+        return config
+
+    def test_shared_defaults_only_for_a_coupled_case(self):
+        params = case_parameters.resolve_parameters(self.config(), False, [])
+        for name, value in case_parameters.SHARED_DEFAULTS["coupling"].items():
+            self.assertEqual(params[name], value)
+        self.assertEqual(params["progress_lines"], case_parameters.SHARED_DEFAULTS["output"]["progress_lines"])
+        config, _ = run_case.load_case(CASE)  # the stand-in declares no [coupling]: nothing is added
+        self.assertNotIn("implicit_tolerance", case_parameters.resolve_parameters(config, False, []))
+        own = case_parameters.resolve_parameters(self.config(coupling=dict(self.COUPLED["coupling"], aitken=False)), False, [])
+        self.assertIs(own["aitken"], False)
+
+    def test_bare_and_table_names(self):
+        config = self.config(smoke={"coupling": {"fem_dt": 0.05}, "average_s": 0.25})
+        for setting in ("scheme=implicit", "coupling.scheme=implicit"):
+            self.assertEqual(case_parameters.resolve_parameters(config, False, [setting])["scheme"], "implicit")
+        smoke = case_parameters.resolve_parameters(config, True, [])
+        self.assertEqual((smoke["fem_dt"], smoke["average_s"]), (0.05, 0.25))
+        with self.assertRaisesRegex(case_parameters.ParameterError, r"\[parameters\] has no 'scheme' \(it is in \[coupling\]\)"):
+            case_parameters.resolve_parameters(config, False, ["parameters.scheme=implicit"])
+        with self.assertRaisesRegex(case_parameters.ParameterError, "did you mean fem_dt"):
+            case_parameters.resolve_parameters(config, False, ["coupling.fem_dtt=1"])
+        config["limits"] = {"fem.block_length": {"min": 1}}
+        self.assertIn("block_length=0.2 is out of range", case_parameters.check_parameters(
+            case_parameters.resolve_parameters(config, False, []), config)[0])
+
+    def test_declaration_mistakes_refused(self):
+        for config, expected in [(self.config(fem={"fem_dt": 0.2}), "'fem_dt' is in both \\[coupling\\] and \\[fem\\]"),
+                                 (self.config(couplng={}), "unknown entry 'couplng' .did you mean coupling"),
+                                 (self.config(coupling={"fem_dt": 0.1}), "sets scheme in its \\[coupling\\] table")]:
+            with self.subTest(expected=expected), self.assertRaisesRegex(case_parameters.ParameterError, expected):
+                case_parameters.resolve_parameters(config, False, [])
+
+    def test_contact_model_names(self):
+        from railcosim import dem
+        for name, engine in (("facets", "facets"), ("meshContacts", "hierarchy"), ("hierarchy", "hierarchy")):
+            with self.subTest(contact_model=name):
+                params = case_parameters.resolve_parameters(self.config(), False, [f"contact_model={name}"])
+                self.assertEqual(case_parameters.check_parameters(params, self.config()), [])
+                self.assertEqual(dem.coupling_options(params)["contactModel"], engine)
+        self.assertEqual(dem.coupling_options(params)["subcycles"], 10)
+
+    def test_commands_from_the_hooks(self):
+        config, case = run_case.load_case(os.path.join(ROOT, "cases", "plate_impact"))
+        params = dict(case_parameters.resolve_parameters(config, False, []), case_dir="/case")
+        with unittest.mock.patch.dict(os.environ, RAILCOSIM_ROOT="/root"):
+            argv = case.fem_command(params, "ipc:///run/bridge.sock", "/out")
+            dem = case.dem_command(params, "ipc:///run/bridge.sock", "/out")
+        self.assertEqual(argv[:5], ["FreeFem++", "-nw", "-v", "0", "/root/freefem_scripts/solvers/box_elastodynamics.edp"])
+        options = dict(zip(argv[5::2], argv[6::2]))
+        self.assertEqual({k: options[k] for k in ("-mode", "-endpoint", "-scheme", "-dt", "-averageSteps", "-Lx", "-clamped", "-out")},
+                         {"-mode": "coupled", "-endpoint": "ipc:///run/bridge.sock", "-scheme": "justInTime", "-dt": "1e-05",
+                          "-averageSteps": "1", "-Lx": "0.5", "-clamped": "1,2,3,4", "-out": "/out/fem"})
+        self.assertEqual(dem, ["/root/railcosim", "yade", "/case/dem.py", "/out/parameters.json", "ipc:///run/bridge.sock", "/out"])
+
+    def test_hooks_checked_when_loaded(self):
+        folder = tempfile.mkdtemp(prefix="railcosim-case-test-")
+        self.addCleanup(shutil.rmtree, folder)
+        shutil.copy(os.path.join(CASE, "case.toml"), folder)
+        header = "from railcosim.case import Case\n"
+        for body, expected in [("class A(Case):\n    def fem_command(self, p, endpoint, out): return []\n",
+                                "does not define postprocess.self, p, out., a required hook"),
+                               ("class A(Case):\n    def postprocess(self, p, out): return {}\n",
+                                "does not define fem_arguments.self, p. .or fem_command."),
+                               ("class A(Case):\n    def fem_arguments(self, p): return {}\n    def postprocess(self, p): return {}\n",
+                                "A.postprocess.self, p. should take .self, p, out."),
+                               ("def postprocess(p, out): return {}\n", "expected one subclass of railcosim.case.Case, found none")]:
+            with self.subTest(expected=expected):
+                with open(os.path.join(folder, "case.py"), "w") as f:
+                    f.write(header + body)
+                with self.assertRaisesRegex(run_case.CaseError, expected):
+                    run_case.load_case(folder)
 
 
 class EndpointTest(LauncherTestCase):

@@ -2,31 +2,46 @@
 #include "DummyCommon.hpp"
 #include "railcosim/Error.hpp"
 
+#include <boost/program_options.hpp>
+
 #include <cstdio>
 #include <cstdlib>
 #include <iostream>
 
 namespace railcosim::dummy {
 
-Options::Options(int argc, char** argv, const std::map<std::string, std::string>& defaults, const std::string& usage)
-    : values_(defaults) {
-  for (int i = 1; i < argc; ++i) {
-    std::string key = argv[i];
-    if (key == "--help" || key == "-h") {
-      std::cout << usage << '\n';
-      std::exit(0);
+Options::Options(int argc, char** argv, const std::map<std::string, std::string>& defaults, const std::string& usage) {
+  namespace po = boost::program_options;
+  po::options_description described;
+  described.add_options()("help,h", "print the usage");
+  // Switches default to "false" and take no value; every other option takes one.
+  for (const auto& [key, value] : defaults) {
+    if (value == "false" || value == "true") {
+      described.add_options()(key.c_str(), po::bool_switch());
+    } else {
+      described.add_options()(key.c_str(), po::value<std::string>()->default_value(value));
     }
-    if (key.rfind("--", 0) != 0) throw Error("unexpected argument '" + key + "'\n" + usage);
-    key = key.substr(2);
-    const auto known = defaults.find(key);
-    if (known == defaults.end()) throw Error("unknown option --" + key + "\n" + usage);
-    // Switches default to "false" and take no value.
-    if (known->second == "false" || known->second == "true") {
-      values_[key] = "true";
-      continue;
+  }
+  po::variables_map parsed;
+  try {
+    // No positional arguments and no abbreviations: a typo must not pass silently.
+    po::store(po::command_line_parser(argc, argv)
+                  .options(described)
+                  .style(po::command_line_style::default_style & ~po::command_line_style::allow_guessing)
+                  .positional({})
+                  .run(),
+              parsed);
+    po::notify(parsed);
+  } catch (const po::error& error) {
+    throw Error(std::string(error.what()) + "\n" + usage);
+  }
+  if (parsed.count("help")) throw HelpRequested(usage);
+  for (const auto& [key, value] : defaults) {
+    if (value == "false" || value == "true") {
+      values_[key] = parsed[key].as<bool>() ? "true" : "false";
+    } else {
+      values_[key] = parsed[key].as<std::string>();
     }
-    if (i + 1 >= argc) throw Error("option --" + key + " needs a value\n" + usage);
-    values_[key] = argv[++i];
   }
 }
 
@@ -102,6 +117,9 @@ ParticipantConfig participantConfig(const Options& options, CouplingScheme schem
 int runReportingErrors(const char* program, const std::function<int()>& body) {
   try {
     return body();
+  } catch (const HelpRequested& help) {
+    std::cout << help.what() << '\n';
+    return 0;
   } catch (const PeerLostError& error) {
     std::fprintf(stderr, "%s: PEER LOST: %s\n", program, error.what());
     return 2;

@@ -3,17 +3,25 @@
 
 #include "railcosim/InterfaceMesh.hpp"
 #include "railcosim/Participant.hpp"
-#include "railcosim/WindowInterpolation.hpp"
+#include "railcosim/CouplingScheme.hpp"
 
 #include <cmath>
 #include <functional>
 #include <map>
+#include <stdexcept>
 #include <string>
 #include <vector>
 
 namespace railcosim::dummy {
 
-/// "--key value" pairs and "--flag" switches; unknown keys are an error so typos do not pass silently.
+/// "--help": the usage text, printed by runReportingErrors (exit status 0).
+class HelpRequested : public std::runtime_error {
+public:
+  explicit HelpRequested(const std::string& usage) : std::runtime_error(usage) {}
+};
+
+/// "--key value" pairs and "--flag" switches (Boost.Program_options); unknown keys are an error so typos
+/// do not pass silently. Every key of `defaults` is an option; a default of "false" makes it a switch.
 class Options {
 public:
   Options(int argc, char** argv, const std::map<std::string, std::string>& defaults, const std::string& usage);
@@ -47,7 +55,7 @@ struct SpringMass {
 /// The participant settings both stand-ins take from --name, --endpoint, --timeout, --heartbeat.
 ParticipantConfig participantConfig(const Options& options, CouplingScheme scheme);
 
-/// Runs a stand-in's main body and maps failures to its documented exit status (2 peer lost, 3 protocol
+/// Runs a stand-in's main body, prints the usage on --help, and maps failures to its documented exit status (2 peer lost, 3 protocol
 /// error, 1 anything else), printing "PROGRAM: KIND: message" on stderr.
 int runReportingErrors(const char* program, const std::function<int()>& body);
 

@@ -2,9 +2,8 @@
 #include "DummyCommon.hpp"
 
 #include "railcosim/Error.hpp"
-#include "railcosim/ImplicitCoupling.hpp"
+#include "railcosim/CouplingScheme.hpp"
 #include "railcosim/Participant.hpp"
-#include "railcosim/WindowInterpolation.hpp"
 
 #include <algorithm>
 #include <chrono>
@@ -25,7 +24,7 @@ const char* usage =
     "  --heartbeat S    transport heartbeat [s] (1)\n"
     "  --load F         total vertical force of the block on the surface [N] (-1000, i.e. downwards)\n"
     "  --scheme X       justInTime | predictive | implicit (justInTime); must match the FEM side\n"
-    "  --contact-stiffness KC  implicit only: the particles also act as a spring of KC N/m per node on the\n"
+    "  --contact-stiffness KC  a scheme that iterates (implicit) only: the particles also act as a spring of KC N/m per node on the\n"
     "                   surface, F = load/nodes - KC u(t_i+1); checked against the monolithic solution (0)\n"
     "  --tolerance T --absolute-tolerance A --max-iterations K --relaxation W --no-aitken\n"
     "                   implicit window iteration (1e-10, 0 m, 30, 0.5, Aitken on)\n"
@@ -59,18 +58,51 @@ int main(int argc, char** argv) {
     const double dt = setup.femTimeStep;
     const double nodalForce = options.number("load") / static_cast<double>(nodes);
 
-    ForceMessage message;
-    message.forces.assign(3 * nodes, 0.0);
-    for (std::size_t n = 0; n < nodes; ++n) message.forces[3 * n + 2] = nodalForce;
+    SchemeSettings settings;
+    settings.scheme = scheme;
+    settings.implicit.tolerance = options.number("tolerance");  // read by a scheme that iterates a window
+    settings.implicit.absoluteTolerance = options.number("absolute-tolerance");
+    settings.implicit.maxIterations = static_cast<int>(options.integer("max-iterations"));
+    settings.implicit.relaxation = options.number("relaxation");
+    settings.implicit.aitken = !options.flag("no-aitken");
+    const auto coupling = DemCouplingScheme::create(settings, participant, setup);
+    const double contactStiffness = options.number("contact-stiffness");
+    if (contactStiffness != 0.0 && !coupling->iterates()) {
+      throw Error("--contact-stiffness needs a scheme that iterates a window (implicit): with " + toString(scheme) +
+                  " the spring acts a window late, which the monolithic oracle does not model");
+    }
 
-    // Oracle: each node's spring-mass starts from rest when the load starts acting, at t = 0 for
-    // just-in-time and at t = dt for predictive (the FEM's first step there uses no DEM force yet).
-    const double loadStart = scheme == CouplingScheme::JustInTime ? 0.0 : dt;
+    // The particles: the block's weight plus, with --contact-stiffness, a spring bed on every node evaluated
+    // where the surface is at the window's end (an implicit contact force).
+    // Oracles, both independent of the FEM's integrator: without the bed, each node's spring-mass starts from
+    // rest when the load first acts (t = lag dt, lag = 1 for predictive, whose first FEM step precedes any DEM
+    // force): u = (F/k)(1 - cos w s), v = w (F/k) sin w s, a = (F/m) cos w s. With the bed, the monolithic
+    // solution of each window, where the FEM's exact update u1 = A u0 + B v0 + C F meets F = F0 - KC u1, so
+    // u1 = (A u0 + B v0 + C F0) / (1 + C KC).
+    const double lagTime = static_cast<double>(coupling->forcesLag()) * dt;
     const double w = model.omega();
     const double staticDisplacement = nodalForce / model.stiffness;
-    double maxError[3] = {0.0, 0.0, 0.0};  // relative to the amplitudes F/k, w F/k, F/m
+    auto advanced = [&](double u, double v, double force) {
+      model.advance(u, v, force, dt);
+      return std::pair<double, double>(u, v);
+    };
+    const double C = advanced(0.0, 0.0, 1.0).first;  // displacement per unit constant force over one window
+    double oracleU = 0.0, oracleV = 0.0, amplitude = 0.0;
+    double maxError[3] = {0.0, 0.0, 0.0};  // closed form: relative to the amplitudes F/k, w F/k, F/m; bed: u relative to max |u|
+    double maxBedError = 0.0;
     auto checkKinematics = [&](const NodalKinematics& kinematics) {
-      const double s = kinematics.time - loadStart;
+      if (contactStiffness != 0.0) {
+        const double free = advanced(oracleU, oracleV, 0.0).first;
+        const double u1 = (free + C * nodalForce) / (1.0 + C * contactStiffness);
+        const auto next = advanced(oracleU, oracleV, nodalForce - contactStiffness * u1);
+        oracleU = next.first;
+        oracleV = next.second;
+        amplitude = std::max(amplitude, std::abs(oracleU));
+        for (std::size_t n = 0; n < nodes; ++n)
+          maxBedError = std::max(maxBedError, std::abs(kinematics.positions[3 * n + 2] - setup.mesh.coordinates[3 * n + 2] - oracleU));
+        return;
+      }
+      const double s = kinematics.time - lagTime;
       const double expected[3] = {staticDisplacement * (1.0 - std::cos(w * s)), staticDisplacement * w * std::sin(w * s),
                                   s > 0.0 ? nodalForce / model.mass * std::cos(w * s) : 0.0};
       const double scale[3] = {std::abs(staticDisplacement), std::abs(staticDisplacement * w),
@@ -83,104 +115,53 @@ int main(int argc, char** argv) {
       }
     };
 
-    NodalKinematics latest = setup.initial;
-    if (scheme == CouplingScheme::Implicit) {
-      // The particles as a load plus a spring bed on every node, evaluated at the window's end position
-      // (an implicit contact force). Oracle: the monolithic solution of the same window, where the FEM's
-      // exact spring-mass update u1 = A u0 + B v0 + C F meets F = F0 - KC u1, so u1 = (A u0 + B v0 + C F0) / (1 + C KC).
-      const double contactStiffness = options.number("contact-stiffness");
-      ImplicitSettings settings;
-      settings.tolerance = options.number("tolerance");
-      settings.absoluteTolerance = options.number("absolute-tolerance");
-      settings.maxIterations = static_cast<int>(options.integer("max-iterations"));
-      settings.relaxation = options.number("relaxation");
-      settings.aitken = !options.flag("no-aitken");
-      ImplicitWindowIteration iteration(settings, setup.mesh.coordinates, dt);
-      auto advanced = [&](double u, double v, double force) {
-        model.advance(u, v, force, dt);
-        return std::pair<double, double>(u, v);
-      };
-      const double C = advanced(0.0, 0.0, 1.0).first;  // displacement per unit constant force over one window
-      double oracleU = 0.0, oracleV = 0.0, maxOracleError = 0.0, amplitude = 0.0;
-      long passes = 0, unconverged = 0;
-      for (long window = 0; window < windows; ++window) {
-        iteration.startWindow(latest);
-        ImplicitWindowIteration::Outcome outcome;
-        do {
-          const std::vector<double>& assumed = iteration.assumedEnd();
-          for (std::size_t n = 0; n < nodes; ++n)
-            message.forces[3 * n + 2] = nodalForce - contactStiffness * (assumed[3 * n + 2] - setup.mesh.coordinates[3 * n + 2]);
-          message.window = static_cast<std::uint64_t>(window);
-          message.iteration = iteration.iteration();
-          message.time = static_cast<double>(window + 1) * dt;
-          participant.sendForces(message);
-          latest = participant.receiveKinematics(message.window);
-          ++passes;
-          outcome = iteration.judge(latest, true);
-        } while (outcome == ImplicitWindowIteration::Outcome::Repeat);
-        if (outcome == ImplicitWindowIteration::Outcome::GaveUp) {
-          // A diverging window poisons every later one: stop here with the figures that say why.
-          ++unconverged;
-          windows = window + 1;
-          break;
-        }
-        const double free = advanced(oracleU, oracleV, 0.0).first;
-        const double u1 = (free + C * nodalForce) / (1.0 + C * contactStiffness);
-        const auto next = advanced(oracleU, oracleV, nodalForce - contactStiffness * u1);
-        oracleU = next.first;
-        oracleV = next.second;
-        amplitude = std::max(amplitude, std::abs(oracleU));
-        for (std::size_t n = 0; n < nodes; ++n)
-          maxOracleError = std::max(maxOracleError, std::abs(latest.positions[3 * n + 2] - setup.mesh.coordinates[3 * n + 2] - oracleU));
-      }
-      participant.finalize();
-      // Each window's answer lies within the convergence limit of the fixed point (tolerance x displacement,
-      // with --absolute-tolerance 0) and that error is carried on by a stable recursion: 2000 windows at
-      // 1e-8...1e-12 gave 0.9-2.8 x tolerance, so 100 x tolerance separates a converged run from a wrong one.
-      const double relativeError = amplitude > 0.0 ? maxOracleError / amplitude : maxOracleError;
-      const bool passed = unconverged == 0 && (!check || relativeError <= 100.0 * settings.tolerance);
-      std::printf("railcosim_dummy_dem: %s %ld windows, %ld passes (%.2f per window), %ld not converged, %zu nodes, implicit%s, "
-                  "contact stiffness %g N/m, max error vs monolithic %.2e of the amplitude\n",
-                  passed ? "OK" : "FAILED", windows, passes, windows > 0 ? static_cast<double>(passes) / windows : 0.0, unconverged,
-                  nodes, settings.aitken ? " (Aitken)" : "", contactStiffness, relativeError);
-      if (unconverged > 0)
-        std::fprintf(stderr, "railcosim_dummy_dem: window %ld did not converge within %d passes (last residual %.3e m, limit %.3e m); "
-                     "stopped there\n", windows - 1, settings.maxIterations, iteration.residualNorm(), iteration.convergenceLimit());
-      return passed ? 0 : 1;
-    }
+    std::vector<double> forces(3 * nodes, 0.0), positions, velocities;
+    long unconverged = 0;
     for (long window = 0; window < windows; ++window) {
-      message.window = static_cast<std::uint64_t>(window);
-      message.time = static_cast<double>(window + 1) * dt;
-      if (scheme == CouplingScheme::JustInTime) {
+      WindowResult result;
+      do {
+        coupling->surfaceAt(dt, positions, velocities);
+        for (std::size_t n = 0; n < nodes; ++n)
+          forces[3 * n + 2] = nodalForce - contactStiffness * (positions[3 * n + 2] - setup.mesh.coordinates[3 * n + 2]);
         if (computeTime.count() > 0) std::this_thread::sleep_for(computeTime);
-        participant.sendForces(message);
-        latest = participant.receiveKinematics(message.window);
-      } else {
-        const NodalKinematics atEnd = participant.receiveKinematics(message.window);
-        // The surface the DEM would move inside this window: linear from P(t_i) to P(t_i+1).
-        const NodalKinematics start = predictiveStart(latest, atEnd, dt);
-        (void)start;
-        latest = atEnd;
-        if (computeTime.count() > 0) std::this_thread::sleep_for(computeTime);
-        participant.sendForces(message);
+        result = coupling->completeWindow(forces, static_cast<double>(window + 1) * dt, true);
+      } while (result.repeat);
+      if (!result.converged) {
+        // A diverging window poisons every later one: stop here with the figures that say why.
+        ++unconverged;
+        windows = window + 1;
+        break;
       }
-      if (check) checkKinematics(latest);
+      if (check) checkKinematics(coupling->lastReceived());
     }
     participant.finalize();
 
-    // Exact propagation per window: only round-off accumulates (~1e-16 per window, a few thousand
-    // windows), so 1e-9 of the amplitude separates a correct exchange from any real error.
-    const double tolerance = 1e-9;
-    const bool passed = !check || (maxError[0] <= tolerance && maxError[1] <= tolerance && maxError[2] <= tolerance);
+    // Closed form: exact propagation per window, only round-off accumulates (~1e-16 per window, a few thousand
+    // windows), so 1e-9 of the amplitude separates a correct exchange from any real error. Bed: each window's
+    // answer lies within the convergence limit of the fixed point (tolerance x displacement, with
+    // --absolute-tolerance 0) and that error is carried on by a stable recursion: 2000 windows at 1e-8...1e-12
+    // gave 0.9-2.8 x tolerance, so 100 x tolerance separates a converged run from a wrong one.
+    const double bedError = amplitude > 0.0 ? maxBedError / amplitude : maxBedError;
+    const bool withinOracle = contactStiffness != 0.0
+                                  ? bedError <= 100.0 * settings.implicit.tolerance
+                                  : maxError[0] <= 1e-9 && maxError[1] <= 1e-9 && maxError[2] <= 1e-9;
+    const bool passed = unconverged == 0 && (!check || withinOracle);
+    const WindowIterationStatistics& iterations = coupling->iterationStatistics();
+    const long passes = coupling->iterates() ? iterations.passes : windows;
     const BridgeStatistics& statistics = participant.statistics();
     const double perExchange = statistics.exchanges > 0 ? 1e6 / static_cast<double>(statistics.exchanges) : 0.0;
-    std::printf("railcosim_dummy_dem: %s %ld windows, %llu exchanges, %zu nodes, %s, bridge %.1f us/exchange "
-                "(encode %.1f + transfer %.1f), wait %.1f us/exchange, max relative error u %.2e v %.2e a %.2e%s\n",
-                passed ? "OK" : "FAILED", windows, static_cast<unsigned long long>(statistics.exchanges), nodes,
-                toString(scheme).c_str(), statistics.bridgeSeconds() * perExchange,
-                statistics.encodeSeconds * perExchange, statistics.transferSeconds * perExchange,
-                statistics.waitSeconds * perExchange, maxError[0], maxError[1], maxError[2],
-                check ? "" : " (not checked)");
+    std::printf("railcosim_dummy_dem: %s %ld windows, %ld passes (%.2f per window), %ld not converged, %llu exchanges, "
+                "%zu nodes, %s%s, contact stiffness %g N/m, bridge %.1f us/exchange (encode %.1f + transfer %.1f), "
+                "wait %.1f us/exchange, max relative error u %.2e v %.2e a %.2e, vs monolithic %.2e%s\n",
+                passed ? "OK" : "FAILED", windows, passes, windows > 0 ? static_cast<double>(passes) / windows : 0.0,
+                unconverged, static_cast<unsigned long long>(statistics.exchanges), nodes, toString(scheme).c_str(),
+                coupling->iterates() && settings.implicit.aitken ? " (Aitken)" : "", contactStiffness,
+                statistics.bridgeSeconds() * perExchange, statistics.encodeSeconds * perExchange,
+                statistics.transferSeconds * perExchange, statistics.waitSeconds * perExchange, maxError[0], maxError[1],
+                maxError[2], bedError, check ? "" : " (not checked)");
+    if (unconverged > 0)
+      std::fprintf(stderr, "railcosim_dummy_dem: window %ld did not converge within %d passes (last residual %.3e m, limit %.3e m); "
+                   "stopped there\n", windows - 1, settings.implicit.maxIterations, iterations.lastResidual, iterations.lastLimit);
     return passed ? 0 : 1;
   });
 }

@@ -3,7 +3,7 @@
 
 #include "railcosim/Error.hpp"
 #include "railcosim/Participant.hpp"
-#include "railcosim/WindowInterpolation.hpp"
+#include "railcosim/CouplingScheme.hpp"
 
 #include <chrono>
 #include <cstdio>
@@ -63,7 +63,7 @@ int main(int argc, char** argv) {
     participant.initialize(mesh, dt, state);
 
     // One FEM step t_i -> t_i+1 with the vertical nodal forces in appliedForce.
-    std::uint64_t passes = 0;  // FEM solves (the implicit scheme solves a window once per pass)
+    std::uint64_t passes = 0;  // FEM solves (a scheme that repeats windows solves a window once per pass)
     auto step = [&](std::uint64_t window) {
       ++passes;
       if (computeTime.count() > 0) std::this_thread::sleep_for(computeTime);
@@ -75,48 +75,27 @@ int main(int argc, char** argv) {
       }
       state.time = static_cast<double>(window + 1) * dt;
     };
-    auto takeForces = [&](const ForceMessage& message) {
-      for (std::size_t n = 0; n < nodes; ++n) appliedForce[n] = message.forces[3 * n + 2];
-    };
 
-    std::uint64_t window = 0;
+    // The scheme orders the messages; this loop only solves, saves and restores as it is told.
+    const auto coupling = FemCouplingScheme::create(participant, nodes);
+    std::vector<double> forces;
     std::vector<double> savedDisplacement, savedVelocity;
-    while (maxWindows <= 0 || window < static_cast<std::uint64_t>(maxWindows)) {
-      if (scheme == CouplingScheme::Implicit) {
-        // Iteration 0 opens window i: the last pass of window i-1 is accepted and becomes the saved start.
-        // Iteration k > 0 repeats window i from that start with the DEM's new forces.
-        const auto forces = participant.receiveForces();
-        if (!forces) break;
-        if (forces->iteration == 0) {
-          savedDisplacement = displacement;
-          savedVelocity = velocity;
-        } else {
-          displacement = savedDisplacement;
-          velocity = savedVelocity;
-        }
-        takeForces(*forces);
-        step(forces->window);
-        participant.sendKinematics(forces->window, state);
-        window = forces->window;  // counts windows opened, not passes
-        continue;
+    while (maxWindows <= 0 || coupling->windowsReceived() < static_cast<std::uint64_t>(maxWindows)) {
+      if (!coupling->beginStep(forces)) break;
+      if (maxWindows > 0 && coupling->window() >= static_cast<std::uint64_t>(maxWindows)) break;  // no step past the last window
+      if (coupling->requiresWritingCheckpoint()) {
+        savedDisplacement = displacement;
+        savedVelocity = velocity;
       }
-      if (scheme == CouplingScheme::JustInTime) {
-        const auto forces = participant.receiveForces();
-        if (!forces) break;
-        takeForces(*forces);
-        step(window);
-        participant.sendKinematics(window, state);
-      } else {
-        // Predictive: step with the forces of the previous window, then read this window's forces.
-        step(window);
-        participant.sendKinematics(window, state);
-        const auto forces = participant.receiveForces();
-        if (!forces) break;
-        takeForces(*forces);
+      if (coupling->requiresReadingCheckpoint()) {
+        displacement = savedDisplacement;
+        velocity = savedVelocity;
       }
-      ++window;
+      for (std::size_t n = 0; n < nodes; ++n) appliedForce[n] = forces[3 * n + 2];
+      step(coupling->window());
+      coupling->endStep(state);
     }
-    if (scheme == CouplingScheme::Implicit && passes > 0) ++window;  // the window index of the last pass, as a count
+    const std::uint64_t window = coupling->windowsReceived();
     participant.finalize();
     const BridgeStatistics& statistics = participant.statistics();
     const double perExchange = statistics.exchanges > 0 ? 1e6 / static_cast<double>(statistics.exchanges) : 0.0;

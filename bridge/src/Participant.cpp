@@ -5,8 +5,9 @@
 
 #include "com/Channel.hpp"
 #include "config/ParticipantConfig.hpp"
+#include "cplscheme/MessageOrder.hpp"
 #include "protocol/Message.hpp"
-#include "railcosim/WindowInterpolation.hpp"
+#include "railcosim/CouplingScheme.hpp"
 
 #include <chrono>
 #include <cmath>
@@ -46,6 +47,7 @@ public:
   bool handshakeDone() const { return handshakeDone_; }
   /// Statistics cover the coupled run only: the handshake (and waiting for the peer to start) is left out.
   void setHandshakeDone() {
+    makeOrder();
     handshakeDone_ = true;
     statistics_ = BridgeStatistics{};
   }
@@ -352,10 +354,22 @@ public:
   }
 
   const std::string& peerScheme() const { return peerScheme_; }
-  /// Whether either side named the implicit scheme (the handshake refused two different names).
-  bool implicitScheme() const {
-    return peerScheme_ == "implicit" ||
-           (!config_.couplingScheme.empty() && parseCouplingScheme(config_.couplingScheme) == CouplingScheme::Implicit);
+  /// The scheme both sides follow: this side's, else the peer's (the handshake refused two different
+  /// names), else none named ("").
+  std::string agreedScheme() const {
+    if (!config_.couplingScheme.empty()) return toString(parseCouplingScheme(config_.couplingScheme));
+    return peerScheme_;
+  }
+  /// The message order of the agreed scheme (just-in-time's when none was named); made at the handshake.
+  cplscheme::MessageOrder& order() { return *order_; }
+  const cplscheme::MessageOrder* orderIfAny() const { return order_.get(); }
+  std::string agreedSchemeLabel() const {
+    const std::string scheme = agreedScheme();
+    return scheme.empty() ? std::string("justInTime (none named)") : scheme;
+  }
+  void makeOrder() {
+    const std::string scheme = agreedScheme();
+    order_ = cplscheme::makeMessageOrder(scheme.empty() ? CouplingScheme::JustInTime : parseCouplingScheme(scheme));
   }
 
   protocol::Hello ownHello() const {
@@ -381,6 +395,7 @@ private:
   std::string peerName_;
   std::string peerScheme_;
   std::unique_ptr<com::Channel> channel_;
+  std::unique_ptr<cplscheme::MessageOrder> order_;
   BridgeStatistics statistics_;
   std::size_t nodeCount_ = 0;
   bool handshakeDone_ = false;
@@ -401,15 +416,13 @@ std::string windowText(const char* what, std::uint64_t window) {
 struct FemParticipant::Impl {
   explicit Impl(ParticipantConfig config) : link(std::move(config), protocol::Role::Fem) {}
   Link link;
-  std::uint64_t nextForcesWindow = 0;      // window of the next Forces message expected
-  std::uint64_t nextKinematicsWindow = 0;  // window of the next Kinematics message to send
-  std::uint32_t forcesIteration = 0;       // implicit: pass of the forces received last
-  bool kinematicsOwed = false;             // implicit: forces received, their kinematics not sent yet
+  /// Windows with kinematics sent so far (the Finalize message's window).
+  std::uint64_t kinematicsWindows() const { return link.orderIfAny() ? link.orderIfAny()->kinematicsWindows() : 0; }
 };
 
 FemParticipant::FemParticipant(ParticipantConfig config) : impl_(std::make_unique<Impl>(std::move(config))) {}
 
-FemParticipant::~FemParticipant() { impl_->link.finalizeQuietly(impl_->nextKinematicsWindow); }
+FemParticipant::~FemParticipant() { impl_->link.finalizeQuietly(impl_->kinematicsWindows()); }
 
 void FemParticipant::initialize(const InterfaceMesh& mesh, double femTimeStep, const NodalKinematics& initial) {
   Link& link = impl_->link;
@@ -442,36 +455,24 @@ std::optional<ForceMessage> FemParticipant::receiveForces() {
   Link& link = impl_->link;
   if (link.peerFinalized()) return std::nullopt;
   link.requireUsable("receiveForces()");
-  if (impl_->kinematicsOwed) {
-    link.fail("receiveForces: the kinematics of window " + std::to_string(impl_->nextForcesWindow - 1) + " (iteration " +
-              std::to_string(impl_->forcesIteration) + ") were not sent yet; the implicit scheme answers every pass");
-  }
-  const std::string waitingFor = windowText("forces", impl_->nextForcesWindow);
+  cplscheme::MessageOrder& order = link.order();
+  const std::string blocked = order.forcesBlockedBecause();
+  if (!blocked.empty()) link.fail("receiveForces: " + blocked);
+  const std::string waitingFor = windowText("forces", order.forcesWindows());
   auto [frame, header] = link.receive(waitingFor, true);
   if (header.type == protocol::MessageType::Finalize) {
     link.decodeBody([&] { protocol::decodeFinalize(header); return 0; }, waitingFor);
     link.setPeerFinalized();
     log(LogLevel::Info, link.self() + ": " + link.peerLabel() + " finalized the run after " +
-                            std::to_string(impl_->nextForcesWindow) + " windows");
+                            std::to_string(order.forcesWindows()) + " windows");
     return std::nullopt;
   }
-  if (link.implicitScheme()) {
-    // Implicit: the next pass over the window just answered, or the first pass of the next window.
-    const std::uint64_t next = impl_->nextForcesWindow;
-    const bool nextWindow = header.window == next && header.iteration == 0;
-    const bool repeat = next > 0 && header.window == next - 1 && header.iteration == impl_->forcesIteration + 1;
-    if (header.type != protocol::MessageType::Forces || !(nextWindow || repeat)) {
-      link.unexpected(header, "Forces for window " + std::to_string(next) + (next > 0 ? " or for window " +
-                                  std::to_string(next - 1) + " (iteration " + std::to_string(impl_->forcesIteration + 1) + ")" : std::string()));
-    }
-  } else if (header.type != protocol::MessageType::Forces || header.window != impl_->nextForcesWindow || header.iteration != 0) {
-    link.unexpected(header, "Forces for window " + std::to_string(impl_->nextForcesWindow));
+  if (header.type != protocol::MessageType::Forces || !order.forcesAllowed(header.window, header.iteration)) {
+    link.unexpected(header, "Forces for " + order.expectedForces());
   }
   ForceMessage message = link.decodeBody(
       [&] { return protocol::decodeForces(header, frame.data(), link.nodeCount()); }, waitingFor);
-  if (message.iteration == 0) ++impl_->nextForcesWindow;
-  impl_->forcesIteration = message.iteration;
-  impl_->kinematicsOwed = link.implicitScheme();
+  order.forcesExchanged(message.window, message.iteration);
   return message;
 }
 
@@ -482,23 +483,10 @@ void FemParticipant::sendKinematics(std::uint64_t window, const NodalKinematics&
                         std::to_string(window) + " have no receiver");
   }
   link.requireUsable("sendKinematics()");
-  std::uint32_t iteration = 0;
-  if (link.implicitScheme()) {
-    // Implicit: kinematics answer the pass whose forces arrived last.
-    if (!impl_->kinematicsOwed || window + 1 != impl_->nextForcesWindow) {
-      link.fail("sendKinematics: window " + std::to_string(window) + " but the implicit scheme answers the forces received last (" +
-                (impl_->nextForcesWindow > 0 && impl_->kinematicsOwed ? "window " + std::to_string(impl_->nextForcesWindow - 1)
-                                                                       : std::string("none pending")) + ")");
-    }
-    iteration = impl_->forcesIteration;
-  } else if (window != impl_->nextKinematicsWindow) {
-    link.fail("sendKinematics: window " + std::to_string(window) + " but window " +
-              std::to_string(impl_->nextKinematicsWindow) + " is next; windows go 0, 1, 2, ... without gaps");
-  }
-  // Just-in-time sends kinematics of window i after its forces, predictive one window before them.
-  if (!link.implicitScheme() && window > impl_->nextForcesWindow) {
-    link.fail("sendKinematics: window " + std::to_string(window) + " is more than one window ahead of the forces "
-              "received so far (" + std::to_string(impl_->nextForcesWindow) + " windows)");
+  cplscheme::MessageOrder& order = link.order();
+  if (!order.kinematicsAllowed(window)) {
+    link.fail("sendKinematics: window " + std::to_string(window) + " but the " + link.agreedSchemeLabel() +
+              " scheme expects the kinematics of " + order.expectedKinematics());
   }
   // Sizes here; finiteness is checked by the encoder in the same pass as the copy.
   const std::size_t values = 3 * link.nodeCount();
@@ -511,13 +499,15 @@ void FemParticipant::sendKinematics(std::uint64_t window, const NodalKinematics&
               std::to_string(values) + " each (velocities and accelerations may be empty)");
   }
   if (!std::isfinite(kinematics.time)) link.fail("sendKinematics: time is not finite");
+  const std::uint32_t iteration = order.kinematicsIteration();
   link.send(link.encode([&](auto buffer) { return protocol::encodeKinematics(window, kinematics, std::move(buffer), iteration); }),
             windowText("kinematics", window), true);
-  impl_->nextKinematicsWindow = window + 1;
-  impl_->kinematicsOwed = false;
+  order.kinematicsExchanged(window);
 }
 
-void FemParticipant::finalize() { impl_->link.finalizeQuietly(impl_->nextKinematicsWindow); }
+void FemParticipant::finalize() { impl_->link.finalizeQuietly(impl_->kinematicsWindows()); }
+
+std::string FemParticipant::couplingScheme() const { return impl_->link.agreedScheme(); }
 
 void FemParticipant::abort(const std::string& reason) { impl_->link.abortQuietly(impl_->link.self() + ": " + reason); }
 
@@ -528,15 +518,16 @@ const BridgeStatistics& FemParticipant::statistics() const { return impl_->link.
 struct DemParticipant::Impl {
   explicit Impl(ParticipantConfig config) : link(std::move(config), protocol::Role::Dem) {}
   Link link;
-  std::uint64_t nextForcesWindow = 0;      // window of the next Forces message to send
-  std::uint64_t nextKinematicsWindow = 0;  // window of the next Kinematics message expected
-  std::uint32_t forcesIteration = 0;       // implicit: pass of the forces sent last
-  bool kinematicsAwaited = false;          // implicit: forces sent, their kinematics not received yet
+  std::uint64_t forcesAfterFinalize = 0;  // forces not sent because the FEM side had finalized
+  /// Windows with forces sent so far (the Finalize message's window).
+  std::uint64_t forcesWindows() const {
+    return (link.orderIfAny() ? link.orderIfAny()->forcesWindows() : 0) + forcesAfterFinalize;
+  }
 };
 
 DemParticipant::DemParticipant(ParticipantConfig config) : impl_(std::make_unique<Impl>(std::move(config))) {}
 
-DemParticipant::~DemParticipant() { impl_->link.finalizeQuietly(impl_->nextForcesWindow); }
+DemParticipant::~DemParticipant() { impl_->link.finalizeQuietly(impl_->forcesWindows()); }
 
 InterfaceSetup DemParticipant::initialize() {
   Link& link = impl_->link;
@@ -573,35 +564,16 @@ void DemParticipant::sendForces(const ForceMessage& message) {
   Link& link = impl_->link;
   if (link.peerFinalized()) {
     // Nothing to deliver to; the following receiveKinematics() reports the early end.
-    ++impl_->nextForcesWindow;
+    ++impl_->forcesAfterFinalize;
     return;
   }
   link.requireUsable("sendForces()");
-  const bool implicit = link.implicitScheme();
-  if (implicit) {
-    const std::uint64_t next = impl_->nextForcesWindow;
-    const bool nextWindow = message.window == next && message.iteration == 0;
-    const bool repeat = next > 0 && message.window == next - 1 && message.iteration == impl_->forcesIteration + 1;
-    if (impl_->kinematicsAwaited) {
-      link.fail("sendForces: the kinematics of window " + std::to_string(next - 1) + " (iteration " +
-                std::to_string(impl_->forcesIteration) + ") were not received yet; the implicit scheme alternates");
-    }
-    if (!nextWindow && !repeat) {
-      link.fail("sendForces: window " + std::to_string(message.window) + " iteration " + std::to_string(message.iteration) +
-                "; the implicit scheme continues with window " + std::to_string(next) + " iteration 0" +
-                (next > 0 ? " or repeats window " + std::to_string(next - 1) + " as iteration " +
-                                std::to_string(impl_->forcesIteration + 1) : std::string()));
-    }
-  } else if (message.iteration != 0) {
-    link.fail("sendForces: iteration " + std::to_string(message.iteration) + " but only the implicit scheme repeats windows");
-  } else if (message.window != impl_->nextForcesWindow) {
-    link.fail("sendForces: window " + std::to_string(message.window) + " but window " +
-              std::to_string(impl_->nextForcesWindow) + " is next; windows go 0, 1, 2, ... without gaps");
-  }
-  // Just-in-time sends forces of window i before its kinematics, predictive after them.
-  if (!implicit && message.window > impl_->nextKinematicsWindow) {
-    link.fail("sendForces: window " + std::to_string(message.window) + " is more than one window ahead of the "
-              "kinematics received so far (" + std::to_string(impl_->nextKinematicsWindow) + " windows)");
+  cplscheme::MessageOrder& order = link.order();
+  const std::string blocked = order.forcesBlockedBecause();
+  if (!blocked.empty()) link.fail("sendForces: " + blocked);
+  if (!order.forcesAllowed(message.window, message.iteration)) {
+    link.fail("sendForces: window " + std::to_string(message.window) + " iteration " + std::to_string(message.iteration) +
+              " but the " + link.agreedSchemeLabel() + " scheme continues with " + order.expectedForces());
   }
   if (message.forces.size() != 3 * link.nodeCount()) {
     link.fail("sendForces(window " + std::to_string(message.window) + "): forces has " +
@@ -610,23 +582,16 @@ void DemParticipant::sendForces(const ForceMessage& message) {
   }
   if (!std::isfinite(message.time)) link.fail("sendForces: time is not finite");
   link.send(link.encode([&](auto buffer) { return protocol::encodeForces(message, std::move(buffer)); }), windowText("forces", message.window), true);
-  impl_->nextForcesWindow = message.window + 1;
-  impl_->forcesIteration = message.iteration;
-  impl_->kinematicsAwaited = implicit;
+  order.forcesExchanged(message.window, message.iteration);
 }
 
 NodalKinematics DemParticipant::receiveKinematics(std::uint64_t window) {
   Link& link = impl_->link;
   link.requireUsable("receiveKinematics()");
-  const bool implicit = link.implicitScheme();
-  if (implicit) {
-    if (!impl_->kinematicsAwaited || window + 1 != impl_->nextForcesWindow) {
-      link.fail("receiveKinematics: window " + std::to_string(window) + " asked but the implicit scheme answers the forces sent last (" +
-                (impl_->kinematicsAwaited ? "window " + std::to_string(impl_->nextForcesWindow - 1) : std::string("none sent")) + ")");
-    }
-  } else if (window != impl_->nextKinematicsWindow) {
-    link.fail("receiveKinematics: window " + std::to_string(window) + " asked but window " +
-              std::to_string(impl_->nextKinematicsWindow) + " is next");
+  cplscheme::MessageOrder& order = link.order();
+  if (!order.kinematicsAllowed(window)) {
+    link.fail("receiveKinematics: window " + std::to_string(window) + " asked but the " + link.agreedSchemeLabel() +
+              " scheme expects the kinematics of " + order.expectedKinematics());
   }
   const std::string waitingFor = windowText("kinematics", window);
   if (link.peerFinalized()) {
@@ -639,19 +604,20 @@ NodalKinematics DemParticipant::receiveKinematics(std::uint64_t window) {
     throw PeerLostError(link.self() + ": " + link.peerLabel() + " finalized the run while this side was waiting for " +
                         waitingFor + "; the FEM side ended early (end time reached or stopped) - check its log");
   }
-  const std::uint32_t iteration = implicit ? impl_->forcesIteration : 0;
+  const std::uint32_t iteration = order.kinematicsIteration();
   if (header.type != protocol::MessageType::Kinematics || header.window != window || header.iteration != iteration) {
     link.unexpected(header, "Kinematics for window " + std::to_string(window) +
                                 (iteration > 0 ? " (iteration " + std::to_string(iteration) + ")" : std::string()));
   }
   NodalKinematics kinematics = link.decodeBody(
       [&] { return protocol::decodeKinematics(header, frame.data(), link.nodeCount()); }, waitingFor);
-  impl_->nextKinematicsWindow = window + 1;
-  impl_->kinematicsAwaited = false;
+  order.kinematicsExchanged(window);
   return kinematics;
 }
 
-void DemParticipant::finalize() { impl_->link.finalizeQuietly(impl_->nextForcesWindow); }
+void DemParticipant::finalize() { impl_->link.finalizeQuietly(impl_->forcesWindows()); }
+
+std::string DemParticipant::couplingScheme() const { return impl_->link.agreedScheme(); }
 
 void DemParticipant::abort(const std::string& reason) { impl_->link.abortQuietly(impl_->link.self() + ": " + reason); }
 

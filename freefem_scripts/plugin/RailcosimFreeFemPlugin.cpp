@@ -12,6 +12,18 @@
 //       zero-based, counter-clockwise seen from outside), the window length [s] and the kinematics at
 //       t = 0 (positions = coordinates; velocities [m/s] and accelerations [m/s^2], 3 per node).
 //       Returns the number of interface nodes.
+// The time loop, scheme-agnostic (the coupling scheme agreed at the handshake orders the messages):
+//   long railcosimBeginStep(real[int] forces)
+//       Waits, if the scheme orders it, for the nodal forces [N] that load the next step (3 per node,
+//       resized if needed). Returns 1, or 0 once the DEM side has ended the run.
+//   long railcosimWriteCheckpoint()  1: save the solver state (u, v, a, t) before solving this step.
+//   long railcosimReadCheckpoint()   1: restore the saved state before solving (the window is repeated).
+//   long railcosimEndStep(real time, real[int] positions, real[int] velocities, real[int] accelerations)
+//       Sends the interface kinematics at the end of the step just solved (time t_i+1 [s]).
+//   long railcosimStepAccepted()     1 once per solved step that became final (record it then); ask after
+//                                    railcosimBeginStep and after railcosimEndStep.
+//   long railcosimStepWindow()       Window index of the step being solved.
+// Low-level calls (a script that orders the messages itself; not mixed with the calls above):
 //   long railcosimReceiveForces(real[int] forces)
 //       Waits for the next window's nodal forces [N] (3 per node, resized if needed). Returns 1, or 0
 //       once the DEM side has finished (forces untouched).
@@ -32,6 +44,7 @@
 // Every railcosim::Error becomes a FreeFEM execution error carrying the full message (FreeFem++ then
 // stops with a non-zero exit status); before that the peer is told why, so it does not hang.
 
+#include "railcosim/CouplingScheme.hpp"
 #include "railcosim/Error.hpp"
 #include "railcosim/InterfaceMesh.hpp"
 #include "railcosim/Participant.hpp"
@@ -51,6 +64,7 @@ namespace {
 
 struct PluginState {
   std::unique_ptr<railcosim::FemParticipant> participant;
+  std::unique_ptr<railcosim::FemCouplingScheme> scheme;  // made by the first railcosimBeginStep
   std::string name = "fem";
   std::size_t nodeCount = 0;
   bool initialized = false;
@@ -77,6 +91,7 @@ PluginState& state() {
       // The peer may already be gone; the original error is the one worth reporting.
     }
     s.finalStatistics = s.participant->statistics();
+    s.scheme.reset();
     s.participant.reset();
     s.finalized = true;
   }
@@ -220,6 +235,70 @@ long railcosimSendKinematics(const long& window, const double& time, KN<double>*
   });
 }
 
+railcosim::FemCouplingScheme& requireScheme(const char* function) {
+  PluginState& s = state();
+  railcosim::FemParticipant& participant = requireParticipant(function, true);
+  if (!s.scheme) s.scheme = railcosim::FemCouplingScheme::create(participant, s.nodeCount);
+  return *s.scheme;
+}
+
+long railcosimBeginStep(KN<double>* const& forces) {
+  return guarded("railcosimBeginStep", [&]() -> long {
+    PluginState& s = state();
+    railcosim::FemCouplingScheme& scheme = requireScheme("railcosimBeginStep");
+    std::vector<double> values;
+    if (!scheme.beginStep(values)) return 0L;
+    if (values.size() != 3 * s.nodeCount) {
+      std::ostringstream text;
+      text << "window " << scheme.window() << " carries " << values.size() << " force values, expected "
+           << 3 * s.nodeCount << " (3 per interface node)";
+      fail("railcosimBeginStep", text.str());
+    }
+    if (static_cast<std::size_t>(forces->N()) != values.size()) forces->resize(values.size());
+    for (long i = 0; i < static_cast<long>(values.size()); ++i) (*forces)[i] = values[i];
+    s.lastForceTime = scheme.forcesTime();
+    s.lastForceWindow = static_cast<long>(scheme.windowsReceived()) - 1;
+    s.lastForceIteration = static_cast<long>(scheme.forcesIteration());
+    return 1L;
+  });
+}
+
+long railcosimEndStep(const double& time, KN<double>* const& positions, KN<double>* const& velocities,
+                      KN<double>* const& accelerations) {
+  return guarded("railcosimEndStep", [&]() -> long {
+    PluginState& s = state();
+    railcosim::FemCouplingScheme& scheme = requireScheme("railcosimEndStep");
+    requireNodalSize("railcosimEndStep", "positions", *positions, s.nodeCount);
+    requireNodalSize("railcosimEndStep", "velocities", *velocities, s.nodeCount);
+    requireNodalSize("railcosimEndStep", "accelerations", *accelerations, s.nodeCount);
+    railcosim::NodalKinematics kinematics;
+    kinematics.time = time;
+    kinematics.positions = toVector(*positions);
+    kinematics.velocities = toVector(*velocities);
+    kinematics.accelerations = toVector(*accelerations);
+    scheme.endStep(kinematics);
+    return 0L;
+  });
+}
+
+long railcosimWriteCheckpoint() {
+  return guarded("railcosimWriteCheckpoint", [&]() -> long { return requireScheme("railcosimWriteCheckpoint").requiresWritingCheckpoint() ? 1L : 0L; });
+}
+
+long railcosimReadCheckpoint() {
+  return guarded("railcosimReadCheckpoint", [&]() -> long { return requireScheme("railcosimReadCheckpoint").requiresReadingCheckpoint() ? 1L : 0L; });
+}
+
+long railcosimStepAccepted() {
+  PluginState& s = state();
+  return s.scheme && s.scheme->takeAcceptedStep() ? 1L : 0L;
+}
+
+long railcosimStepWindow() {
+  PluginState& s = state();
+  return s.scheme ? static_cast<long>(s.scheme->window()) : 0L;
+}
+
 long railcosimFinalize() {
   return guarded("railcosimFinalize", [&]() -> long {
     PluginState& s = state();
@@ -227,6 +306,7 @@ long railcosimFinalize() {
     s.participant->finalize();
     s.finalStatistics = s.participant->statistics();
     // Released here rather than at static destruction, after FreeFEM's own teardown.
+    s.scheme.reset();
     s.participant.reset();
     s.finalized = true;
     return 0L;
@@ -242,6 +322,7 @@ long railcosimAbort(string* const& reason) {
   } catch (...) {
     // Aborting is already the failure path; a vanished peer needs no further report.
   }
+  s.scheme.reset();
   s.participant.reset();
   s.finalized = true;
   return 0L;
@@ -266,6 +347,13 @@ static void init() {
   Global.Add("railcosimConnect", "(", new OneOperator4_<long, string*, string*, double, string*>(railcosimConnectScheme));
   Global.Add("railcosimInitialize", "(",
              new OneOperator5_<long, KN<double>*, KN<long>*, double, KN<double>*, KN<double>*>(railcosimInitialize));
+  Global.Add("railcosimBeginStep", "(", new OneOperator1_<long, KN<double>*>(railcosimBeginStep));
+  Global.Add("railcosimEndStep", "(",
+             new OneOperator4_<long, double, KN<double>*, KN<double>*, KN<double>*>(railcosimEndStep));
+  Global.Add("railcosimWriteCheckpoint", "(", new OneOperator0<long>(railcosimWriteCheckpoint));
+  Global.Add("railcosimReadCheckpoint", "(", new OneOperator0<long>(railcosimReadCheckpoint));
+  Global.Add("railcosimStepAccepted", "(", new OneOperator0<long>(railcosimStepAccepted));
+  Global.Add("railcosimStepWindow", "(", new OneOperator0<long>(railcosimStepWindow));
   Global.Add("railcosimReceiveForces", "(", new OneOperator1_<long, KN<double>*>(railcosimReceiveForces));
   Global.Add("railcosimSendKinematics", "(",
              new OneOperator5_<long, long, double, KN<double>*, KN<double>*, KN<double>*>(railcosimSendKinematics));

@@ -3,6 +3,7 @@
 #include <boost/test/unit_test.hpp>
 
 #include "railcosim/Error.hpp"
+#include "railcosim/CouplingScheme.hpp"
 #include "railcosim/WindowInterpolation.hpp"
 
 #include <cmath>

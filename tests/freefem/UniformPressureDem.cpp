@@ -12,11 +12,12 @@
 //            [--trapezoid 1]   (FEM runs average-acceleration Newmark: check (p1-p0)/dt = (v0+v1)/2)
 // Exit status 0 = all checks passed, 1 = a check failed or an error occurred.
 
+#include "DummyCommon.hpp"
 #include "railcosim/Error.hpp"
 #include "railcosim/ForceLumping.hpp"
 #include "railcosim/InterfaceMesh.hpp"
 #include "railcosim/Participant.hpp"
-#include "railcosim/WindowInterpolation.hpp"
+#include "railcosim/CouplingScheme.hpp"
 
 #include <array>
 #include <cmath>
@@ -32,19 +33,9 @@ using namespace railcosim;
 
 namespace {
 
-std::map<std::string, std::string> parseOptions(int argc, char** argv) {
-  std::map<std::string, std::string> options = {{"endpoint", ""},       {"pressure", "0"}, {"windows", "10"},
-                                                {"scheme", "justInTime"}, {"area", "-1"},    {"normal", "0,0,1"},
-                                                {"timeout", "60"}, {"trapezoid", "0"}};
-  for (int i = 1; i < argc; i += 2) {
-    const std::string key = argv[i];
-    if (key.rfind("--", 0) != 0 || i + 1 >= argc || options.count(key.substr(2)) == 0)
-      throw std::runtime_error("unknown or incomplete option '" + key + "'; see the usage in the source header");
-    options[key.substr(2)] = argv[i + 1];
-  }
-  if (options["endpoint"].empty()) throw std::runtime_error("--endpoint is required");
-  return options;
-}
+const char* usage =
+    "railcosim_test_pressure_dem --endpoint E --pressure P --windows W [--scheme justInTime|predictive|implicit]\n"
+    "    [--area A] [--normal x,y,z] [--timeout S] [--trapezoid 1]";
 
 std::array<double, 3> parseVector(const std::string& text) {
   std::array<double, 3> value{};
@@ -69,17 +60,21 @@ void expect(bool condition, const std::string& what) {
 
 int main(int argc, char** argv) {
   try {
-    std::map<std::string, std::string> options = parseOptions(argc, argv);
-    const double pressure = std::stod(options["pressure"]);
-    const long windows = std::stol(options["windows"]);
-    const double expectedArea = std::stod(options["area"]);
-    const std::array<double, 3> expectedNormal = parseVector(options["normal"]);
-    const CouplingScheme scheme = parseCouplingScheme(options["scheme"]);
+    const dummy::Options options(argc, argv,
+                                 {{"endpoint", ""}, {"pressure", "0"}, {"windows", "10"}, {"scheme", "justInTime"},
+                                  {"area", "-1"}, {"normal", "0,0,1"}, {"timeout", "60"}, {"trapezoid", "0"}},
+                                 usage);
+    if (options.text("endpoint").empty()) throw std::runtime_error("--endpoint is required");
+    const double pressure = options.number("pressure");
+    const long windows = options.integer("windows");
+    const double expectedArea = options.number("area");
+    const std::array<double, 3> expectedNormal = parseVector(options.text("normal"));
+    const CouplingScheme scheme = parseCouplingScheme(options.text("scheme"));
 
     ParticipantConfig config;
     config.name = "pressure-dem";
-    config.endpoint = options["endpoint"];
-    config.timeoutSeconds = std::stod(options["timeout"]);
+    config.endpoint = options.text("endpoint");
+    config.timeoutSeconds = options.number("timeout");
     config.couplingScheme = toString(scheme);
     DemParticipant participant(config);
     const InterfaceSetup setup = participant.initialize();
@@ -166,7 +161,7 @@ int main(int argc, char** argv) {
     for (double v : previous.velocities) velocityScale = std::max(velocityScale, std::abs(v));
     // With beta = 1/4, gamma = 1/2 the relation is exact; what remains is the round-off of
     // differencing positions of order 1 m: ~1e-16 m / dt, far below 1e-6 of the velocities.
-    if (options["trapezoid"] == "1")
+    if (options.integer("trapezoid") == 1)
       expect(worstVelocityMismatch <= 1e-6 * velocityScale + 1e-14 / dt,
              "sent velocities match the trapezoid rule (p1-p0)/dt = (v0+v1)/2 (mismatch " +
                  std::to_string(worstVelocityMismatch) + " m/s)");

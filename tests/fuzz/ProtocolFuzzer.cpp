@@ -6,7 +6,7 @@
 // frame that breaks one of the invariants checked below.
 #include "protocol/Message.hpp"
 #include "railcosim/Error.hpp"
-#include "railcosim/WindowInterpolation.hpp"
+#include "railcosim/CouplingScheme.hpp"
 
 #include <cstdint>
 #include <cstdio>

@@ -84,7 +84,10 @@ void runPair(Transport transport, const std::string& scheme, bool femFirst, int 
   BOOST_TEST_MESSAGE(dem->output() << fem->output());
   BOOST_TEST(contains(dem->output(), "railcosim_dummy_dem: OK " + std::to_string(windows) + " windows"));
   BOOST_TEST(contains(fem->output(), "railcosim_dummy_fem: OK " + std::to_string(windows) + " windows"));
-  BOOST_TEST(contains(dem->output(), std::to_string(2 * windows) + " exchanges"));
+  // One Forces and one Kinematics per window; predictive also reads the FEM's state after the last window's
+  // forces (the surface of a next window), as the YADE engine does.
+  const int exchanges = 2 * windows + (scheme == "predictive" ? 1 : 0);
+  BOOST_TEST(contains(dem->output(), std::to_string(exchanges) + " exchanges"));
 }
 
 } // namespace

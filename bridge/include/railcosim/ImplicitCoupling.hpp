@@ -1,6 +1,7 @@
 // Implicit coupling, DEM side: repeats a window until the FEM end state agrees with the one the DEM assumed.
 #pragma once
 
+#include "railcosim/CouplingScheme.hpp"
 #include "railcosim/InterfaceMesh.hpp"
 
 #include <cstdint>
@@ -8,17 +9,6 @@
 #include <vector>
 
 namespace railcosim {
-
-/// Settings of the window iteration (serial, DEM first; Aitken relaxation of the interface positions).
-struct ImplicitSettings {
-  double tolerance = 1e-3;          // relative: converged when rms|r| <= tolerance * rms|P_end - P_0| + absoluteTolerance
-  double absoluteTolerance = 1e-14; // m, rms over the interface values; floor for a surface that has hardly moved
-  int maxIterations = 30;           // passes per window; the last one is accepted and counted as not converged
-  double relaxation = 0.5;          // ω of the first window's first correction (of every pass without Aitken; with
-                                    // Aitken, later windows start from the previous window's last ω if it lies in (0, 1])
-  bool aitken = true;               // dynamic Aitken ω (Irons & Tuck; Küttler & Wall 2008)
-  void validate() const;            // throws Error naming the bad setting
-};
 
 /// One window of the implicit scheme as the DEM side sees it:
 ///   guess P~_0 = P + V dt + A dt²/2 from the accepted state at t_i (the FEM's, or the initial one);

@@ -1,7 +1,7 @@
 // Validation of ParticipantConfig: name, endpoint transport, timeout and heartbeat.
 #include "config/ParticipantConfig.hpp"
 #include "railcosim/Error.hpp"
-#include "railcosim/WindowInterpolation.hpp"
+#include "railcosim/CouplingScheme.hpp"
 
 #include <cmath>
 #include <sstream>

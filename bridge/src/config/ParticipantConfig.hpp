@@ -1,7 +1,7 @@
 // Checks a participant's configuration before any socket is opened, so mistakes are reported plainly.
 #pragma once
 
-#include "railcosim/Participant.hpp"
+#include "railcosim/BridgeTypes.hpp"
 
 namespace railcosim::config {
 

@@ -1,33 +1,11 @@
-// Surface motion inside a coupling window (just-in-time Taylor extrapolation, predictive linear motion).
+// Surface motion inside a coupling window (Taylor extrapolation of a window-start state, predictive linear motion).
 #include "railcosim/WindowInterpolation.hpp"
 #include "railcosim/Error.hpp"
 
-#include <algorithm>
-#include <cctype>
 #include <cmath>
 #include <sstream>
 
 namespace railcosim {
-
-CouplingScheme parseCouplingScheme(const std::string& name) {
-  std::string key;
-  for (unsigned char c : name) {
-    if (c != '-' && c != '_') key += static_cast<char>(std::tolower(c));
-  }
-  if (key == "justintime") return CouplingScheme::JustInTime;
-  if (key == "predictive") return CouplingScheme::Predictive;
-  if (key == "implicit") return CouplingScheme::Implicit;
-  throw Error("coupling scheme '" + name + "' is unknown; use \"justInTime\", \"predictive\" or \"implicit\"");
-}
-
-std::string toString(CouplingScheme scheme) {
-  switch (scheme) {
-  case CouplingScheme::JustInTime: return "justInTime";
-  case CouplingScheme::Predictive: return "predictive";
-  case CouplingScheme::Implicit: return "implicit";
-  }
-  return "unknown";
-}
 
 void extrapolateSurface(const NodalKinematics& start, double tau, std::vector<double>& positions,
                         std::vector<double>& velocities) {

@@ -1,5 +1,6 @@
 // Encoding and validating decoding of bridge messages (little-endian, layout in docs/protocol.md).
 #include "protocol/Message.hpp"
+#include "railcosim/CouplingScheme.hpp"
 #include "railcosim/Error.hpp"
 
 #include <cmath>
@@ -8,6 +9,16 @@
 
 namespace railcosim::protocol {
 namespace {
+
+/// A scheme name exactly as a participant announces it (the canonical spelling, nothing else).
+bool isCanonicalScheme(const std::string& name) {
+  try {
+    return railcosim::toString(railcosim::parseCouplingScheme(name)) == name;
+  } catch (const Error&) {
+    return false;
+  }
+}
+
 
 constexpr bool hostIsLittleEndian =
 #if defined(__BYTE_ORDER__) && __BYTE_ORDER__ == __ORDER_LITTLE_ENDIAN__
@@ -511,10 +522,9 @@ Hello decodeHello(const Header& header, const std::uint8_t* data) {
   for (unsigned char c : hello.participantName) {
     if (c < 32 || c == 127) throw ProtocolError("Hello: field 'participantName' contains a control character");
   }
-  if (!hello.couplingScheme.empty() && hello.couplingScheme != "justInTime" && hello.couplingScheme != "predictive" &&
-      hello.couplingScheme != "implicit") {
+  if (!hello.couplingScheme.empty() && !isCanonicalScheme(hello.couplingScheme)) {
     throw ProtocolError("Hello from '" + hello.participantName + "': field 'couplingScheme' is '" +
-                        hello.couplingScheme + "'; expected justInTime, predictive, implicit or empty");
+                        hello.couplingScheme + "'; expected " + knownCouplingSchemes() + " or empty");
   }
   if (hello.unitSystem != "SI") {
     throw ProtocolError("Hello from '" + hello.participantName + "': field 'unitSystem' is '" + hello.unitSystem +

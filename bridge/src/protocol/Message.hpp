@@ -2,7 +2,7 @@
 #pragma once
 
 #include "railcosim/InterfaceMesh.hpp"
-#include "railcosim/Participant.hpp"
+#include "railcosim/BridgeTypes.hpp"
 
 #include <cstddef>
 #include <cstdint>

@@ -5,20 +5,17 @@
 #include <core/GlobalEngine.hpp>
 #include <core/Material.hpp>
 
-#include <map>
 #include <memory>
 #include <string>
 #include <vector>
 
+#include "FacetSurface.hpp"
+#include "FemSurfaceContactEngine.hpp"
+#include "SceneCheckpoint.hpp"
+
 namespace railcosim {
 class DemParticipant;
-class ImplicitWindowIteration;
-struct NodalKinematics;
-namespace kernels {
-	class SurfaceTopology;
-	class SurfaceTriangleGrid;
-	struct SurfaceContact;
-}
+class DemCouplingScheme;
 }
 
 namespace yade {
@@ -62,10 +59,10 @@ public:
 		((long, maxWindowPasses, 0, Attr::readonly, "``implicit``: most passes any window needed."))
 		((long, unconvergedWindows, 0, Attr::readonly, "``implicit``: windows accepted after implicitMaxIterations passes without meeting the tolerance."))
 		((Real, lastResidual, 0, Attr::readonly, "``implicit``: rms position residual of the last judged pass [m]."))
-		((Real, checkpointTime, 0, Attr::readonly, "``implicit``: time spent saving and restoring the scene checkpoint [s]."))
-		((string, contactModel, "facets", , "How particles touch the surface. ``facets``: one :yref:`Facet` body per triangle, contacts handled by the scene's own :yref:`InteractionLoop` functors (a sphere over an edge between two triangles gets a contact from each). ``hierarchy``: the engine itself finds sphere-surface contacts with the facet > edge > vertex hierarchy (one contact per touching surface patch, shadowed contacts removed), contact-point velocity interpolated from the nodal velocities, Hertz-Mindlin force from the shared kernels (:yref:`FemCouplingEngine.restitution`, friction and moduli from the particle and surface materials); no facet bodies are inserted."))
-		((Real, restitution, 0.5, , "``hierarchy`` model: coefficient of restitution of particle-surface impacts [-], turned into a Hertzian damping ratio."))
-		((long, surfaceContacts, 0, Attr::readonly, "``hierarchy`` model: number of particle-surface contacts at the last step."))
+		((Real, checkpointTime, 0, Attr::readonly, "Schemes that repeat windows (``implicit``): time spent saving and restoring the scene checkpoint [s]."))
+		((string, contactModel, "facets", , "How particles touch the surface. ``facets``: one :yref:`Facet` body per triangle, contacts handled by the scene's own :yref:`InteractionLoop` functors (a sphere over an edge between two triangles gets a contact from each). ``meshContacts``: a :yref:`FemSurfaceContactEngine` run by this engine finds the sphere-surface contacts itself with the facet > edge > vertex hierarchy (one contact per touching surface patch, shadowed contacts removed), contact-point velocity interpolated from the nodal velocities, Hertz-Mindlin force from the shared kernels (:yref:`FemCouplingEngine.restitution`, friction and moduli from the particle and surface materials); no facet bodies are inserted. ``hierarchy`` is the former name of ``meshContacts`` (deprecated, still accepted)."))
+		((Real, restitution, 0.5, , "``meshContacts`` model: coefficient of restitution of particle-surface impacts [-], turned into a Hertzian damping ratio."))
+		((long, surfaceContacts, 0, Attr::readonly, "``meshContacts`` model: number of particle-surface contacts at the last step."))
 		((Real, timeout, 60, , "Longest wait for any message of the FEM participant [s] before giving up with an error."))
 		((Real, heartbeat, 1, , "Keepalive interval [s]: a frozen peer (silent, not even keepalives) is reported after three intervals; a dead one at once."))
 		((int, subcycles, 0, , "DEM steps per coupling window. 0 (default): the smallest count for which femTimeStep/subcycles does not exceed the current :yref:`Omega.dt`. Omega.dt is set to femTimeStep/subcycles at connection."))
@@ -97,36 +94,26 @@ public:
 	DECLARE_LOGGER;
 
 private:
-	void               placeSurface(Real tau, bool beforeIntegrator);
-	void               collectForces(std::vector<double>& nodal) const;
-	void               accumulateStep();
-	void               hierarchyContacts(std::vector<double>& nodal);
-	bool               useHierarchy() const;
-	bool               exchange(); // false: the implicit scheme repeats the window
-	void               saveCheckpoint();
-	void               restoreCheckpoint();
-	bool               isImplicit() const;
+	void placeSurface(Real tau, bool beforeIntegrator);
+	void accumulateStep();
+	bool meshContacts() const;
+	bool exchange(); // false: the scheme repeats the window
+	void saveCheckpoint();
+	void restoreCheckpoint();
 
-	std::shared_ptr<railcosim::DemParticipant>   participant;
-	std::shared_ptr<railcosim::NodalKinematics>  windowStart;  // kinematics the surface motion is extrapolated from
-	std::shared_ptr<railcosim::NodalKinematics>  lastReceived; // predictive: FEM state at the window end
-	std::vector<int32_t>                         connectivity;
-	std::vector<double>                          forceSum;     // for averageForces
-	std::vector<double>                          stepForces;   // nodal forces of the current DEM step
-	std::vector<double>                          surfacePositions, surfaceVelocities; // flat copies of nodePositions/nodeVelocities
-	long                                         stepsInWindow = 0;
-	// hierarchy model: surface topology, triangle grid, and per-particle contact history
-	struct ContactHistory;
-	std::shared_ptr<railcosim::kernels::SurfaceTopology>     topology;
-	std::shared_ptr<railcosim::kernels::SurfaceTriangleGrid> grid;
-	std::shared_ptr<std::map<Body::id_t, std::vector<ContactHistory>>> history;
-	bool                                         predictive    = false;
-	// implicit scheme: the window iteration, the accepted FEM state at the window start, and a scene checkpoint
-	struct Checkpoint;
-	std::shared_ptr<railcosim::ImplicitWindowIteration> implicitWindow;
-	std::shared_ptr<railcosim::NodalKinematics>         accepted;
-	std::shared_ptr<Checkpoint>                         checkpoint;
-	bool                                                surfaceTouched = false; // any interface force during this pass
+	std::shared_ptr<railcosim::DemParticipant>    participant;
+	std::shared_ptr<railcosim::DemCouplingScheme> coupling;     // orders the messages, moves the surface, judges windows
+	FacetSurface                                  facets;       // contactModel 'facets'
+	shared_ptr<FemSurfaceContactEngine>           meshContact;  // contactModel 'meshContacts'
+	std::vector<double>                           forceSum;     // for averageForces
+	std::vector<double>                           stepForces;   // nodal forces of the current DEM step
+	std::vector<double>                           surfacePositions, surfaceVelocities; // flat copies of nodePositions/nodeVelocities
+	long                                          stepsInWindow  = 0;
+	bool                                          surfaceTouched = false; // any interface force during this pass
+	// What a repeated window restores: the scene, and this engine's own sums and contact history.
+	SceneCheckpoint                                            sceneCheckpoint;
+	Real                                                       savedWorkDem = 0, savedWorkFem = 0;
+	std::shared_ptr<const FemSurfaceContactEngine::History>    savedHistory;
 };
 REGISTER_SERIALIZABLE(FemCouplingEngine);
 

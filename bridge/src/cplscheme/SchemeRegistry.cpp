@@ -1,0 +1,44 @@
+// The registry of coupling schemes and the names users write for them.
+#include "cplscheme/SchemeRegistry.hpp"
+#include "railcosim/Error.hpp"
+#include "railcosim/Participant.hpp"
+
+
+namespace railcosim {
+namespace cplscheme {
+namespace {
+
+// Adding a scheme: its file in cplscheme/ (DEM side, FEM side, message order), one row here, its name in
+// SchemeNames.cpp and its enum value.
+const SchemeEntry registry[] = {
+    {CouplingScheme::JustInTime, makeJustInTimeDem, makeJustInTimeFem, makeJustInTimeOrder},
+    {CouplingScheme::Predictive, makePredictiveDem, makePredictiveFem, makePredictiveOrder},
+    {CouplingScheme::Implicit, makeImplicitDem, makeImplicitFem, makeImplicitOrder},
+};
+
+} // namespace
+
+const SchemeEntry& schemeEntry(CouplingScheme scheme) {
+  for (const SchemeEntry& entry : registry) {
+    if (entry.scheme == scheme) return entry;
+  }
+  throw Error("coupling scheme #" + std::to_string(static_cast<int>(scheme)) + " has no registry row");
+}
+
+std::unique_ptr<MessageOrder> makeMessageOrder(CouplingScheme scheme) { return schemeEntry(scheme).makeOrder(); }
+
+} // namespace cplscheme
+
+std::unique_ptr<DemCouplingScheme> DemCouplingScheme::create(const SchemeSettings& settings, DemParticipant& participant,
+                                                             const InterfaceSetup& setup) {
+  settings.validate();
+  return cplscheme::schemeEntry(settings.scheme).makeDem(settings, participant, setup);
+}
+
+std::unique_ptr<FemCouplingScheme> FemCouplingScheme::create(FemParticipant& participant, std::size_t nodeCount) {
+  const std::string agreed = participant.couplingScheme();
+  const CouplingScheme scheme = agreed.empty() ? CouplingScheme::JustInTime : parseCouplingScheme(agreed);
+  return cplscheme::schemeEntry(scheme).makeFem(participant, nodeCount);
+}
+
+} // namespace railcosim

@@ -24,9 +24,6 @@ from railcosim import results, solvers
 # Longest wait for any message of the FEM participant [s] (FemCouplingEngine.timeout): the FEM side's
 # factorisation of the largest case takes a few seconds, a lost peer is reported by the bridge sooner.
 COUPLING_TIMEOUT_S = 60.0
-# FemCouplingEngine's name of each contact_model value: this engine still knows the mesh contact model by
-# its former name "hierarchy", which it keeps accepting after the rename.
-ENGINE_CONTACT_MODEL = {"facets": "facets", "meshContacts": "hierarchy", "hierarchy": "hierarchy"}
 # The name under which the per-window callback is reachable from a PyRunner command (run in YADE's __main__).
 WINDOW_CALLBACK = "railcosim_record_window"
 
@@ -36,7 +33,7 @@ def coupling_options(p):
     contact model, the implicit scheme's settings, and the DEM steps per window when dem_dt is given (else
     the engine fits them to O.dt at connection)."""
     options = {"scheme": p["scheme"], "averageForces": p["average_forces"],
-               "contactModel": ENGINE_CONTACT_MODEL[p["contact_model"]], "timeout": COUPLING_TIMEOUT_S,
+               "contactModel": p["contact_model"], "timeout": COUPLING_TIMEOUT_S,
                "label": "coupling", "implicitTolerance": float(p["implicit_tolerance"]),
                "implicitMaxIterations": int(p["implicit_max_iterations"]),
                "implicitRelaxation": float(p["implicit_relaxation"]), "aitken": bool(p["aitken"])}

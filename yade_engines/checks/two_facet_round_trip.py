@@ -4,9 +4,9 @@
 # nodes are independent springs), with the facets following the received node positions.
 # With the implicit scheme also: every window converges, windows are repeated (more passes than windows),
 # and the rolled-back clock stays consistent (O.time = O.iter * O.dt after thousands of rollbacks).
-# BODY "clump": a two-sphere cluster instead of the sphere (hierarchy contacts push on each member, the
+# BODY "clump": a two-sphere cluster instead of the sphere (meshContacts contacts push on each member, the
 # clump integrates them): the same weight and moment balance about the clump's centre of mass, two contacts.
-# Run: ./railcosim yade yade_engines/checks/two_facet_round_trip.py PATH/TO/railcosim_dummy_fem [facets|hierarchy] [SCHEME] [sphere|clump]
+# Run: ./railcosim yade yade_engines/checks/two_facet_round_trip.py PATH/TO/railcosim_dummy_fem [facets|meshContacts|hierarchy (former name of meshContacts)] [SCHEME] [sphere|clump]
 import os
 import subprocess
 import sys
@@ -88,7 +88,7 @@ if contact_model == "facets":
 else:
     expected_contacts = 2 if body_kind == "clump" else 1
     check(coupling.surfaceContacts == expected_contacts,
-          f"{expected_contacts} hierarchy contact(s) under the {body_kind} (got {coupling.surfaceContacts})")
+          f"{expected_contacts} {contact_model} contact(s) under the {body_kind} (got {coupling.surfaceContacts})")
 if scheme == "implicit":
     windows = coupling.window
     check(coupling.unconvergedWindows == 0, f"every window converged ({coupling.unconvergedWindows} did not)")

@@ -135,16 +135,19 @@ private:
   bool owed_ = false;            // forces exchanged, their kinematics not yet
 };
 
-} // namespace
-
-std::unique_ptr<DemCouplingScheme> makeImplicitDem(const SchemeSettings& settings, DemParticipant& participant, const InterfaceSetup& setup) {
+std::unique_ptr<DemCouplingScheme> makeDem(const SchemeSettings& settings, DemParticipant& participant, const InterfaceSetup& setup) {
   return std::make_unique<ImplicitDem>(settings.implicit, participant, setup);
 }
 
-std::unique_ptr<FemCouplingScheme> makeImplicitFem(FemParticipant& participant, std::size_t nodeCount) {
+std::unique_ptr<FemCouplingScheme> makeFem(FemParticipant& participant, std::size_t nodeCount) {
   return std::make_unique<ImplicitFem>(participant, nodeCount);
 }
 
-std::unique_ptr<MessageOrder> makeImplicitOrder() { return std::make_unique<ImplicitOrder>(); }
+std::unique_ptr<MessageOrder> makeOrder() { return std::make_unique<ImplicitOrder>(); }
+
+} // namespace
+
+extern const SchemeEntry implicitEntry;
+const SchemeEntry implicitEntry{CouplingScheme::Implicit, makeDem, makeFem, makeOrder};
 
 } // namespace railcosim::cplscheme

@@ -36,16 +36,19 @@ public:
   }
 };
 
-} // namespace
-
-std::unique_ptr<DemCouplingScheme> makeJustInTimeDem(const SchemeSettings&, DemParticipant& participant, const InterfaceSetup& setup) {
+std::unique_ptr<DemCouplingScheme> makeDem(const SchemeSettings&, DemParticipant& participant, const InterfaceSetup& setup) {
   return std::make_unique<JustInTimeDem>(participant, setup);
 }
 
-std::unique_ptr<FemCouplingScheme> makeJustInTimeFem(FemParticipant& participant, std::size_t nodeCount) {
+std::unique_ptr<FemCouplingScheme> makeFem(FemParticipant& participant, std::size_t nodeCount) {
   return std::make_unique<JustInTimeFem>(participant, nodeCount);
 }
 
-std::unique_ptr<MessageOrder> makeJustInTimeOrder() { return std::make_unique<SequentialOrder>(); }
+std::unique_ptr<MessageOrder> makeOrder() { return std::make_unique<SequentialOrder>(); }
+
+} // namespace
+
+extern const SchemeEntry justInTimeEntry;
+const SchemeEntry justInTimeEntry{CouplingScheme::JustInTime, makeDem, makeFem, makeOrder};
 
 } // namespace railcosim::cplscheme

@@ -56,16 +56,19 @@ private:
   bool started_ = false;
 };
 
-} // namespace
-
-std::unique_ptr<DemCouplingScheme> makePredictiveDem(const SchemeSettings&, DemParticipant& participant, const InterfaceSetup& setup) {
+std::unique_ptr<DemCouplingScheme> makeDem(const SchemeSettings&, DemParticipant& participant, const InterfaceSetup& setup) {
   return std::make_unique<PredictiveDem>(participant, setup);
 }
 
-std::unique_ptr<FemCouplingScheme> makePredictiveFem(FemParticipant& participant, std::size_t nodeCount) {
+std::unique_ptr<FemCouplingScheme> makeFem(FemParticipant& participant, std::size_t nodeCount) {
   return std::make_unique<PredictiveFem>(participant, nodeCount);
 }
 
-std::unique_ptr<MessageOrder> makePredictiveOrder() { return std::make_unique<SequentialOrder>(); }
+std::unique_ptr<MessageOrder> makeOrder() { return std::make_unique<SequentialOrder>(); }
+
+} // namespace
+
+extern const SchemeEntry predictiveEntry;
+const SchemeEntry predictiveEntry{CouplingScheme::Predictive, makeDem, makeFem, makeOrder};
 
 } // namespace railcosim::cplscheme

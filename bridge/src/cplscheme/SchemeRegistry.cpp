@@ -6,21 +6,22 @@
 
 namespace railcosim {
 namespace cplscheme {
+
+extern const SchemeEntry justInTimeEntry;  // JustInTimeScheme.cpp
+extern const SchemeEntry predictiveEntry;  // PredictiveScheme.cpp
+extern const SchemeEntry implicitEntry;    // ImplicitScheme.cpp
+
 namespace {
 
-// Adding a scheme: its file in cplscheme/ (DEM side, FEM side, message order), one row here, its name in
-// SchemeNames.cpp and its enum value.
-const SchemeEntry registry[] = {
-    {CouplingScheme::JustInTime, makeJustInTimeDem, makeJustInTimeFem, makeJustInTimeOrder},
-    {CouplingScheme::Predictive, makePredictiveDem, makePredictiveFem, makePredictiveOrder},
-    {CouplingScheme::Implicit, makeImplicitDem, makeImplicitFem, makeImplicitOrder},
-};
+// Adding a scheme: its file in cplscheme/ (DEM side, FEM side, message order and its entry), one row here, its
+// name in SchemeNames.cpp and its enum value.
+const SchemeEntry* const registry[] = {&justInTimeEntry, &predictiveEntry, &implicitEntry};
 
 } // namespace
 
 const SchemeEntry& schemeEntry(CouplingScheme scheme) {
-  for (const SchemeEntry& entry : registry) {
-    if (entry.scheme == scheme) return entry;
+  for (const SchemeEntry* entry : registry) {
+    if (entry->scheme == scheme) return *entry;
   }
   throw Error("coupling scheme #" + std::to_string(static_cast<int>(scheme)) + " has no registry row");
 }

@@ -16,16 +16,16 @@ nvcc=${NVCC:-$(command -v nvcc || echo /usr/local/cuda/bin/nvcc)}
 arch=${CUDA_ARCH:-sm_90}
 build=${BUILD_DIR:-$(mktemp -d)}
 mkdir -p "$build"
-includes="-Iyade_engines -Iyade_engines/gpu -Ibridge/include"
+includes="-Iyade_engines -Ibridge/include"
 common="-O3 -std=c++17 $includes"
 echo "== device"; nvidia-smi --query-gpu=name,driver_version,memory.total --format=csv,noheader || true
 echo "== tools"; "$nvcc" --version | tail -1; (cmake --version | head -1) || true
 echo "== build ($arch ${EXTRA_NVCC_FLAGS:-})"
 start=$(date +%s)
 "$nvcc" $common -arch=$arch ${EXTRA_NVCC_FLAGS:-} -Xcompiler -fopenmp --expt-relaxed-constexpr -Xptxas -v \
-  -c yade_engines/gpu/PolyhedraCudaBackend.cu -o "$build/cuda.o" 2> "$out/ptxas.txt" &
-for f in yade_engines/gpu/PolyhedraSystem.cpp yade_engines/gpu/PolyhedraCpuBackend.cpp yade_engines/gpu/PolyhedraShapes.cpp \
-         bridge/src/io/Log.cpp tests/gpu/PolyhedraGpuComparison.cpp benchmarks/gpu/PolyhedraBench.cpp; do
+  -c yade_engines/polyhedra/cuda/PolyhedraCudaBackend.cu -o "$build/cuda.o" 2> "$out/ptxas.txt" &
+for f in yade_engines/polyhedra/PolyhedraSystem.cpp yade_engines/polyhedra/cpu/PolyhedraCpuBackend.cpp yade_engines/polyhedra/PolyhedraShapes.cpp \
+         bridge/src/io/Log.cpp tests/polyhedra/PolyhedraGpuComparison.cpp benchmarks/gpu/PolyhedraBench.cpp; do
   g++ $common -fopenmp -I/usr/local/cuda/include -c "$f" -o "$build/$(basename "$f" .cpp).o" &
 done
 wait

@@ -7,9 +7,9 @@
 #include <string>
 #include <vector>
 
-#include "PolyhedraShapes.hpp"
-#include "PolyhedraStep.hpp"
-#include "PolyhedraSystem.hpp"
+#include "polyhedra/PolyhedraShapes.hpp"
+#include "polyhedra/PolyhedraStep.hpp"
+#include "polyhedra/PolyhedraSystem.hpp"
 #include "railcosim/Error.hpp"
 
 using namespace railcosim::polyhedra;

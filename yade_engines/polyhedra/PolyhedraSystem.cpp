@@ -1,5 +1,5 @@
 // Facade of the polyhedra DEM: shape templates, parameter checks, backend choice and host-side accessors.
-#include "PolyhedraSystem.hpp"
+#include "polyhedra/PolyhedraSystem.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -7,8 +7,8 @@
 #include <sstream>
 #include <utility>
 
-#include "PolyhedraBackend.hpp"
 #include "kernels/MathConstants.hpp"
+#include "polyhedra/PolyhedraBackend.hpp"
 #include "railcosim/Error.hpp"
 #include "railcosim/Log.hpp"
 

@@ -15,8 +15,8 @@
 #include <omp.h>
 #include <vector>
 
-#include "PolyhedraShapes.hpp"
-#include "PolyhedraSystem.hpp"
+#include "polyhedra/PolyhedraShapes.hpp"
+#include "polyhedra/PolyhedraSystem.hpp"
 
 using namespace railcosim::polyhedra;
 

@@ -2,10 +2,11 @@
 # Builds the polyhedra library, GPU comparison and benchmark with nvcc alone (no CMake/Boost needed) and runs them.
 # Usage (repository root, on a machine with an NVIDIA GPU): benchmarks/gpu/run_device.sh [OUTDIR] [bench sizes...]
 #   OUTDIR defaults to ./polyhedra-device-out; sizes default to 10000 100000 1000000.
+# Needs Eigen 3 headers for the host code (Debian libeigen3-dev, or any copy: EIGEN_INCLUDE).
 # Environment: NVCC (default /usr/local/cuda/bin/nvcc or nvcc on PATH), CUDA_ARCH (default sm_90),
 #   EXTRA_NVCC_FLAGS (e.g. -maxrregcount=128), BENCH_STEPS (200), BENCH_PREPARE (3000), SKIP_COMPARISON=1,
 #   BUILD_DIR (keeps the executables polyhedra_bench and polyhedra_gpu_comparison; default a temporary folder),
-#   BUILD_ONLY=1 (stop after the build).
+#   BUILD_ONLY=1 (stop after the build), EIGEN_INCLUDE (default /usr/include/eigen3).
 set -euo pipefail
 out=${1:-polyhedra-device-out}
 shift || true
@@ -16,17 +17,19 @@ nvcc=${NVCC:-$(command -v nvcc || echo /usr/local/cuda/bin/nvcc)}
 arch=${CUDA_ARCH:-sm_90}
 build=${BUILD_DIR:-$(mktemp -d)}
 mkdir -p "$build"
-includes="-Iyade_engines -Iyade_engines/gpu -Ibridge/include"
+includes="-Iyade_engines -Ibridge/include"
 common="-O3 -std=c++17 $includes"
+# Eigen configured as in the CMake build (yade_engines/polyhedra/CMakeLists.txt), so that both give the same numbers.
+eigen="-I${EIGEN_INCLUDE:-/usr/include/eigen3} -DEIGEN_DONT_ALIGN -DEIGEN_DONT_VECTORIZE -DEIGEN_DISABLE_UNALIGNED_ARRAY_ASSERT"
 echo "== device"; nvidia-smi --query-gpu=name,driver_version,memory.total --format=csv,noheader || true
 echo "== tools"; "$nvcc" --version | tail -1; (cmake --version | head -1) || true
 echo "== build ($arch ${EXTRA_NVCC_FLAGS:-})"
 start=$(date +%s)
 "$nvcc" $common -arch=$arch ${EXTRA_NVCC_FLAGS:-} -Xcompiler -fopenmp --expt-relaxed-constexpr -Xptxas -v \
-  -c yade_engines/gpu/PolyhedraCudaBackend.cu -o "$build/cuda.o" 2> "$out/ptxas.txt" &
-for f in yade_engines/gpu/PolyhedraSystem.cpp yade_engines/gpu/PolyhedraCpuBackend.cpp yade_engines/gpu/PolyhedraShapes.cpp \
-         bridge/src/io/Log.cpp tests/gpu/PolyhedraGpuComparison.cpp benchmarks/gpu/PolyhedraBench.cpp; do
-  g++ $common -fopenmp -I/usr/local/cuda/include -c "$f" -o "$build/$(basename "$f" .cpp).o" &
+  -c yade_engines/polyhedra/cuda/PolyhedraCudaBackend.cu -o "$build/cuda.o" 2> "$out/ptxas.txt" &
+for f in yade_engines/polyhedra/PolyhedraSystem.cpp yade_engines/polyhedra/cpu/PolyhedraCpuBackend.cpp yade_engines/polyhedra/PolyhedraShapes.cpp \
+         bridge/src/io/Log.cpp tests/polyhedra/PolyhedraGpuComparison.cpp benchmarks/gpu/PolyhedraBench.cpp; do
+  g++ $common $eigen -fopenmp -I/usr/local/cuda/include -c "$f" -o "$build/$(basename "$f" .cpp).o" &
 done
 wait
 grep -A2 -E "narrowPhaseKernel|filterKernel|wallForcesKernel|forcesKernel" "$out/ptxas.txt" | grep -E "stack|registers" || true

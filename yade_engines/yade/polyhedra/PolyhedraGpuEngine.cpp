@@ -1,8 +1,8 @@
 // PolyhedraGpuEngine: hands YADE's polyhedra to the dilated-polyhedra system, advances it in batches, syncs back.
 #include "PolyhedraGpuEngine.hpp"
 
-#include "PolyhedraShapes.hpp"
-#include "PolyhedraSystem.hpp"
+#include "polyhedra/PolyhedraShapes.hpp"
+#include "polyhedra/PolyhedraSystem.hpp"
 
 #include <core/Scene.hpp>
 #include <core/State.hpp>

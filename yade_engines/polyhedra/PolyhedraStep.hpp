@@ -4,18 +4,17 @@
 #include <cmath>
 #include <cstdint>
 
-#include "PolyhedraGeometry.hpp"
 #include "kernels/HertzMindlin.hpp"
 #include "kernels/HostDevice.hpp"
 #include "kernels/RotationIntegrators.hpp"
 #include "kernels/Vector3.hpp"
+#include "polyhedra/PolyhedraGeometry.hpp"
 
 #if defined(__CUDA_ARCH__)
 #define RAILCOSIM_POLYHEDRA_DEVICE_PASS 1
 #endif
 #if defined(__CUDACC__)
-#include <cooperative_groups.h>
-#include <cooperative_groups/reduce.h>
+#include "polyhedra/cuda/PolyhedraWarpSums.cuh"
 #endif
 
 namespace railcosim::polyhedra {
@@ -656,17 +655,7 @@ RAILCOSIM_HOST_DEVICE inline void accumulateTriangleSums(const SystemView& s, in
     const double magnitude = kernels::norm(force);
     const Vec3 weighted = magnitude * point;
 #if defined(RAILCOSIM_POLYHEDRA_DEVICE_PASS)
-    namespace cg = cooperative_groups;
-    const cg::coalesced_group same = cg::labeled_partition(cg::coalesced_threads(), t);
-    const double values[7] = {force.x, force.y, force.z, weighted.x, weighted.y, weighted.z, magnitude};
-    double* const targets[7] = {s.triangleForceSum + 3 * t, s.triangleForceSum + 3 * t + 1, s.triangleForceSum + 3 * t + 2,
-                                s.trianglePointSum + 3 * t, s.trianglePointSum + 3 * t + 1, s.trianglePointSum + 3 * t + 2,
-                                s.triangleWeightSum + t};
-#pragma unroll
-    for (int c = 0; c < 7; ++c) {
-        const double sum = cg::reduce(same, values[c], cg::plus<double>());
-        if (same.thread_rank() == 0) atomicAdd(targets[c], sum);
-    }
+    addTriangleSumsWarpAggregated(t, force, weighted, magnitude, s.triangleForceSum, s.trianglePointSum, s.triangleWeightSum);
 #else
     atomicAccumulate3(s.triangleForceSum, t, force);
     atomicAccumulate3(s.trianglePointSum, t, weighted);

@@ -2,7 +2,7 @@
 #include <algorithm>
 #include <numeric>
 
-#include "PolyhedraBackend.hpp"
+#include "polyhedra/PolyhedraBackend.hpp"
 
 namespace railcosim::polyhedra {
 

@@ -1,5 +1,5 @@
 // Shape-template builders (convex hull by exhaustive plane search, regular solids) for stones and tests.
-#include "PolyhedraShapes.hpp"
+#include "polyhedra/PolyhedraShapes.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -7,7 +7,7 @@
 #include <random>
 #include <string>
 
-#include "PolyhedraGeometry.hpp"
+#include "polyhedra/PolyhedraGeometry.hpp"
 #include "railcosim/Error.hpp"
 
 namespace railcosim::polyhedra {

@@ -7,9 +7,9 @@
 #include <string>
 #include <vector>
 
-#include "PolyhedraShapes.hpp"
-#include "PolyhedraStep.hpp"
-#include "PolyhedraSystem.hpp"
+#include "polyhedra/PolyhedraShapes.hpp"
+#include "polyhedra/PolyhedraStep.hpp"
+#include "polyhedra/PolyhedraSystem.hpp"
 #include "railcosim/Error.hpp"
 
 using namespace railcosim::polyhedra;
@@ -786,4 +786,60 @@ BOOST_AUTO_TEST_CASE(cuda_request_without_gpu_is_a_clear_error) {
     p.backend = Backend::Automatic;
     PolyhedraSystem automatic(p);
     BOOST_TEST(!automatic.backendReason().empty());
+}
+
+// Principal frame convention of addShape (principalAxes in PolyhedraSystem.cpp): a template already in principal
+// axes keeps its frame and the order of its moments; otherwise the frame is the eigenvector frame closest to the
+// given one (largest Σ_k |v_k·e_k|, v_k·e_k ≥ 0 but for one axis reversed to make it right-handed); an isotropic
+// tensor keeps the given axes; for two equal moments the odd axis is the eigenvector.
+BOOST_AUTO_TEST_CASE(principal_frame_is_the_eigenvector_frame_closest_to_the_given_one) {
+    PolyhedraSystem system(quietParameters(0.5, 0.5));
+    const auto rotated = [](ShapeTemplate shape, const Quat& q) {
+        const Rotation r = rotationMatrix(normalized(q));
+        for (std::size_t k = 0; k < shape.vertices.size(); k += 3) {
+            const Vec3 v = apply(r, Vec3{shape.vertices[k], shape.vertices[k + 1], shape.vertices[k + 2]});
+            shape.vertices[k] = v.x;
+            shape.vertices[k + 1] = v.y;
+            shape.vertices[k + 2] = v.z;
+        }
+        return shape;
+    };
+    const auto frameOf = [&](int shape) {  // m[3 r + c]: component r of principal axis c in the given frame
+        const std::array<double, 4> q = system.shapeProperties(shape).principalToGiven;
+        return rotationMatrix(Quat{q[0], q[1], q[2], q[3]});
+    };
+    const std::array<double, 4> identity{1.0, 0.0, 0.0, 0.0};
+    const Quat q0{0.9, 0.3, -0.2, 0.25}, q1{0.2, 0.7, 0.1, -0.5};
+    const ShapeTemplate stone = dodecahedronStone(0.026, 0.028, 0.022, 0.003, 2600);  // moments I_y < I_x < I_z
+
+    const ShapeProperties given = system.shapeProperties(system.addShape(stone));
+    BOOST_TEST((given.principalToGiven == identity));
+    BOOST_TEST(given.principalInertia[0] > given.principalInertia[1]);
+
+    for (const Quat& q : {q0, q1}) {
+        const int shape = system.addShape(rotated(stone, q));
+        std::array<double, 3> moments = system.shapeProperties(shape).principalInertia, expected = given.principalInertia;
+        std::sort(moments.begin(), moments.end());
+        std::sort(expected.begin(), expected.end());
+        // Ratios: the dilated volume, hence the scale of the moments, carries the rotated edge angles' round-off.
+        for (int k = 0; k < 2; ++k) BOOST_TEST(moments[k] / moments[2] == expected[k] / expected[2], boost::test_tools::tolerance(1e-12));
+        const Rotation r = frameOf(shape);
+        const double alignment = std::fabs(r.m[0]) + std::fabs(r.m[4]) + std::fabs(r.m[8]);
+        for (const auto& p : {std::array<int, 3>{0, 2, 1}, {1, 0, 2}, {1, 2, 0}, {2, 0, 1}, {2, 1, 0}})
+            BOOST_TEST(alignment >= std::fabs(r.m[p[0]]) + std::fabs(r.m[3 + p[1]]) + std::fabs(r.m[6 + p[2]]));
+        BOOST_TEST((r.m[0] < 0.0) + (r.m[4] < 0.0) + (r.m[8] < 0.0) <= 1);
+    }
+
+    BOOST_TEST((system.shapeProperties(system.addShape(rotated(cubeTemplate(0.01, 0.001, 2600), q0))).principalToGiven == identity));
+
+    const int axisymmetric = system.addShape(rotated(dodecahedronStone(0.02, 0.02, 0.03, 0.002, 2600), q0));
+    const std::array<double, 3> moments = system.shapeProperties(axisymmetric).principalInertia;
+    const double sum = moments[0] + moments[1] + moments[2];
+    int odd = 0;  // the moment farthest from the mean of the two others
+    for (int k = 1; k < 3; ++k)
+        if (std::fabs(1.5 * moments[k] - 0.5 * sum) > std::fabs(1.5 * moments[odd] - 0.5 * sum)) odd = k;
+    const Rotation r = frameOf(axisymmetric);
+    const Vec3 longAxis = apply(rotationMatrix(normalized(q0)), Vec3{0.0, 0.0, 1.0});
+    BOOST_TEST(std::fabs(r.m[odd] * longAxis.x + r.m[3 + odd] * longAxis.y + r.m[6 + odd] * longAxis.z) == 1.0,
+               boost::test_tools::tolerance(1e-12));
 }

@@ -1,5 +1,5 @@
 // Stand-in for the CUDA backend factory when the library is built without CUDA (RAILCOSIM_WITH_CUDA=OFF).
-#include "PolyhedraBackend.hpp"
+#include "polyhedra/PolyhedraBackend.hpp"
 
 namespace railcosim::polyhedra {
 

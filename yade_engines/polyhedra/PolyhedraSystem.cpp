@@ -1,5 +1,5 @@
 // Facade of the polyhedra DEM: shape templates, parameter checks, backend choice and host-side accessors.
-#include "PolyhedraSystem.hpp"
+#include "polyhedra/PolyhedraSystem.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -7,8 +7,10 @@
 #include <sstream>
 #include <utility>
 
-#include "PolyhedraBackend.hpp"
+#include <Eigen/Eigenvalues>
+
 #include "kernels/MathConstants.hpp"
+#include "polyhedra/PolyhedraBackend.hpp"
 #include "railcosim/Error.hpp"
 #include "railcosim/Log.hpp"
 
@@ -40,39 +42,76 @@ Values scattered(const Values& values, std::size_t width, std::size_t count, Tar
     return result;
 }
 
-// Cyclic Jacobi diagonalisation of a symmetric 3×3 matrix: eigenvalues and eigenvectors (columns of v).
-void jacobiEigen(double a[3][3], double values[3], double v[3][3]) {
+// Principal moments and axes of a symmetric inertia tensor, from Eigen's SelfAdjointEigenSolver (Householder
+// tridiagonalisation and implicit symmetric QR, Golub & Van Loan 2013, §8.3). Eigenvectors are defined only up
+// to order, sign and, for equal moments, any rotation within their eigenspace; the principal frame is taken as
+// the eigenvector frame closest to the frame the template was given in, so that it does not depend on the
+// solver and a template already in principal axes keeps its frame:
+//   1. a tensor diagonal to round-off (sum of squared off-diagonal terms ≤ 1e-30 of that of the diagonal)
+//      is taken as it is: the given axes, its diagonal as the moments;
+//   2. moments within 1e-10 of the largest span one eigenspace: three equal moments give the given axes; for two,
+//      the odd eigenvector takes the given axis it is most aligned with and the two other given axes, projected
+//      onto the plane normal to it (Gram–Schmidt in axis order), span the double eigenspace;
+//   3. three distinct moments: given axis k takes eigenvector p(k), p the permutation maximising Σ_k |v_p(k)·e_k|;
+//   4. every axis is signed so that v_k·e_k ≥ 0; a left-handed frame gets its least aligned axis reversed.
+// The moments are the Rayleigh quotients v_kᵀ I v_k of the chosen axes. axes[r][c]: component r of axis c.
+void principalAxes(const double inertia[3][3], double moments[3], double axes[3][3]) {
+    Eigen::Matrix3d tensor;
     for (int r = 0; r < 3; ++r)
-        for (int c = 0; c < 3; ++c) v[r][c] = r == c ? 1.0 : 0.0;
-    for (int sweep = 0; sweep < 50; ++sweep) {
-        const double off = a[0][1] * a[0][1] + a[0][2] * a[0][2] + a[1][2] * a[1][2];
-        const double scale = a[0][0] * a[0][0] + a[1][1] * a[1][1] + a[2][2] * a[2][2];
-        if (off <= 1e-30 * scale) break;
-        for (int p = 0; p < 2; ++p) {
-            for (int q = p + 1; q < 3; ++q) {
-                if (a[p][q] == 0.0) continue;
-                const double theta = (a[q][q] - a[p][p]) / (2.0 * a[p][q]);
-                const double t = (theta >= 0 ? 1.0 : -1.0) / (std::fabs(theta) + std::sqrt(theta * theta + 1.0));
-                const double c = 1.0 / std::sqrt(t * t + 1.0), s = t * c;
-                for (int k = 0; k < 3; ++k) {  // A ← Jᵀ A J
-                    const double akp = a[k][p], akq = a[k][q];
-                    a[k][p] = c * akp - s * akq;
-                    a[k][q] = s * akp + c * akq;
+        for (int c = 0; c < 3; ++c) tensor(r, c) = inertia[r][c];
+    Eigen::Matrix3d frame = Eigen::Matrix3d::Identity();  // column k: principal axis k in the given frame
+    const double offDiagonal = tensor(0, 1) * tensor(0, 1) + tensor(0, 2) * tensor(0, 2) + tensor(1, 2) * tensor(1, 2);
+    const double diagonal = tensor(0, 0) * tensor(0, 0) + tensor(1, 1) * tensor(1, 1) + tensor(2, 2) * tensor(2, 2);
+    if (offDiagonal > 1e-30 * diagonal) {  // else case 1: the given axes
+        const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> solver(tensor);
+        if (solver.info() != Eigen::Success) fail("addShape", "the eigen-decomposition of the inertia tensor did not converge");
+        const Eigen::Vector3d values = solver.eigenvalues();  // ascending
+        const Eigen::Matrix3d vectors = solver.eigenvectors();
+        const double tolerance = 1e-10 * std::max(std::fabs(values(0)), std::fabs(values(2)));
+        const bool lowPair = values(1) - values(0) <= tolerance, highPair = values(2) - values(1) <= tolerance;
+        if (lowPair != highPair) {
+            const Eigen::Vector3d odd = vectors.col(lowPair ? 2 : 0);
+            int oddAxis = 0;
+            odd.cwiseAbs().maxCoeff(&oddAxis);
+            frame.col(oddAxis) = odd;
+            bool first = true;
+            for (int k = 0; k < 3; ++k) {
+                if (k == oddAxis) continue;
+                Eigen::Vector3d axis = Eigen::Vector3d::Unit(k);
+                axis -= axis.dot(odd) * odd;
+                if (!first) {
+                    const Eigen::Vector3d previous = frame.col(3 - oddAxis - k);
+                    axis -= axis.dot(previous) * previous;
                 }
-                for (int k = 0; k < 3; ++k) {
-                    const double apk = a[p][k], aqk = a[q][k];
-                    a[p][k] = c * apk - s * aqk;
-                    a[q][k] = s * apk + c * aqk;
-                }
-                for (int k = 0; k < 3; ++k) {
-                    const double vkp = v[k][p], vkq = v[k][q];
-                    v[k][p] = c * vkp - s * vkq;
-                    v[k][q] = s * vkp + c * vkq;
+                frame.col(k) = axis.normalized();
+                first = false;
+            }
+        } else if (!lowPair) {
+            static const int permutations[6][3] = {{0, 1, 2}, {0, 2, 1}, {1, 0, 2}, {1, 2, 0}, {2, 0, 1}, {2, 1, 0}};
+            int best = 0;
+            double bestAlignment = -1.0;
+            for (int p = 0; p < 6; ++p) {
+                double alignment = 0.0;
+                for (int k = 0; k < 3; ++k) alignment += std::fabs(vectors(k, permutations[p][k]));
+                if (alignment > bestAlignment) {
+                    bestAlignment = alignment;
+                    best = p;
                 }
             }
+            for (int k = 0; k < 3; ++k) frame.col(k) = vectors.col(permutations[best][k]);
+        }
+        for (int k = 0; k < 3; ++k)
+            if (frame(k, k) < 0.0) frame.col(k) = -frame.col(k);
+        if (frame.determinant() < 0.0) {
+            int leastAligned = 0;
+            frame.diagonal().minCoeff(&leastAligned);
+            frame.col(leastAligned) = -frame.col(leastAligned);
         }
     }
-    for (int k = 0; k < 3; ++k) values[k] = a[k][k];
+    for (int k = 0; k < 3; ++k) {
+        moments[k] = frame.col(k).dot(tensor * frame.col(k));  // exactly tensor(k, k) for the given axes
+        for (int r = 0; r < 3; ++r) axes[r][k] = frame(r, k);
+    }
 }
 
 Quat quaternionFromMatrix(const double m[3][3]) {
@@ -333,11 +372,7 @@ int PolyhedraSystem::addShape(const ShapeTemplate& shape) {
         double inertia[3][3];
         for (int i = 0; i < 3; ++i)
             for (int j = 0; j < 3; ++j) inertia[i][j] = (i == j ? traceS : 0.0) - s[i][j];
-        jacobiEigen(inertia, principal, axes);
-        // Right-handed principal frame.
-        const Vec3 e0{axes[0][0], axes[1][0], axes[2][0]}, e1{axes[0][1], axes[1][1], axes[2][1]}, e2{axes[0][2], axes[1][2], axes[2][2]};
-        if (kernels::dot(kernels::cross(e0, e1), e2) < 0.0)
-            for (int k = 0; k < 3; ++k) axes[k][2] = -axes[k][2];
+        principalAxes(inertia, principal, axes);  // right-handed
         // Steiner: V(K ⊕ rB) = V + S r + M r² + (4/3)π r³, with M = ½ Σ_edges L φ (φ: angle between the
         // normals of the two triangles of the edge; coplanar triangles contribute nothing).
         std::map<std::pair<int, int>, std::vector<Vec3>> edgeNormals;

@@ -8,8 +8,8 @@
 #include <tuple>
 #include <vector>
 
-#include "PolyhedraShapes.hpp"
-#include "PolyhedraSystem.hpp"
+#include "polyhedra/PolyhedraShapes.hpp"
+#include "polyhedra/PolyhedraSystem.hpp"
 
 using namespace railcosim::polyhedra;
 

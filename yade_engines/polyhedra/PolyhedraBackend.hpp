@@ -6,7 +6,7 @@
 #include <string>
 #include <vector>
 
-#include "PolyhedraStep.hpp"
+#include "polyhedra/PolyhedraStep.hpp"
 
 namespace railcosim::polyhedra {
 

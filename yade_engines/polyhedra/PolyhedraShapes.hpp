@@ -4,7 +4,7 @@
 #include <cstdint>
 #include <vector>
 
-#include "PolyhedraSystem.hpp"
+#include "polyhedra/PolyhedraSystem.hpp"
 
 namespace railcosim::polyhedra {
 

@@ -9,7 +9,7 @@
 #include <string>
 #include <vector>
 
-#include "PolyhedraBackend.hpp"
+#include "polyhedra/PolyhedraBackend.hpp"
 #include "railcosim/Error.hpp"
 
 namespace railcosim::polyhedra {

@@ -86,7 +86,7 @@ class BeamUniformLoad(Case):
         force_error = abs(interface_force - weight) / weight
         fluctuation = results.force_fluctuation(series["time"], series["interface_force"][:, 2], p["average_s"], weight)
         checks = [
-            # The seed reached 0.38 % (51 kg) and 0.85 % (72 kg); the case asks for 1 %. The smoke bed (2.5 spheres
+            # Ullrich 2022 reached 0.38 % (51 kg) and 0.85 % (72 kg); the case asks for 1 %. The smoke bed (2.5 spheres
             # across the width) loads the end stations visibly less than a uniform pressure: its limit is larger.
             {"name": "coupled vs direct FEM deflection", "value": error_direct, "limit": p["deflection_tolerance"]},
             # Same nodal forces, static: what remains is residual motion of the bed and beam over the final span.

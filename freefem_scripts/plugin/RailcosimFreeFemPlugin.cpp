@@ -140,6 +140,21 @@ void requireNodalSize(const char* function, const char* what, const KN<double>& 
   }
 }
 
+// The kinematics an .edp script passes at a step's end, checked for 3 values per interface node.
+railcosim::NodalKinematics kinematicsFrom(const char* function, double time, const KN<double>& positions,
+                                          const KN<double>& velocities, const KN<double>& accelerations) {
+  const std::size_t nodes = state().nodeCount;
+  requireNodalSize(function, "positions", positions, nodes);
+  requireNodalSize(function, "velocities", velocities, nodes);
+  requireNodalSize(function, "accelerations", accelerations, nodes);
+  railcosim::NodalKinematics kinematics;
+  kinematics.time = time;
+  kinematics.positions = toVector(positions);
+  kinematics.velocities = toVector(velocities);
+  kinematics.accelerations = toVector(accelerations);
+  return kinematics;
+}
+
 long connectWithScheme(string* const& endpoint, string* const& name, const double& timeoutSeconds, const std::string& scheme) {
   return guarded("railcosimConnect", [&]() -> long {
     PluginState& s = state();
@@ -219,18 +234,10 @@ long railcosimReceiveForces(KN<double>* const& forces) {
 long railcosimSendKinematics(const long& window, const double& time, KN<double>* const& positions,
                              KN<double>* const& velocities, KN<double>* const& accelerations) {
   return guarded("railcosimSendKinematics", [&]() -> long {
-    PluginState& s = state();
     railcosim::FemParticipant& participant = requireParticipant("railcosimSendKinematics", true);
     if (window < 0) fail("railcosimSendKinematics", "window index " + std::to_string(window) + " is negative");
-    requireNodalSize("railcosimSendKinematics", "positions", *positions, s.nodeCount);
-    requireNodalSize("railcosimSendKinematics", "velocities", *velocities, s.nodeCount);
-    requireNodalSize("railcosimSendKinematics", "accelerations", *accelerations, s.nodeCount);
-    railcosim::NodalKinematics kinematics;
-    kinematics.time = time;
-    kinematics.positions = toVector(*positions);
-    kinematics.velocities = toVector(*velocities);
-    kinematics.accelerations = toVector(*accelerations);
-    participant.sendKinematics(static_cast<std::uint64_t>(window), kinematics);
+    participant.sendKinematics(static_cast<std::uint64_t>(window),
+                               kinematicsFrom("railcosimSendKinematics", time, *positions, *velocities, *accelerations));
     return 0L;
   });
 }
@@ -266,17 +273,8 @@ long railcosimBeginStep(KN<double>* const& forces) {
 long railcosimEndStep(const double& time, KN<double>* const& positions, KN<double>* const& velocities,
                       KN<double>* const& accelerations) {
   return guarded("railcosimEndStep", [&]() -> long {
-    PluginState& s = state();
     railcosim::FemCouplingScheme& scheme = requireScheme("railcosimEndStep");
-    requireNodalSize("railcosimEndStep", "positions", *positions, s.nodeCount);
-    requireNodalSize("railcosimEndStep", "velocities", *velocities, s.nodeCount);
-    requireNodalSize("railcosimEndStep", "accelerations", *accelerations, s.nodeCount);
-    railcosim::NodalKinematics kinematics;
-    kinematics.time = time;
-    kinematics.positions = toVector(*positions);
-    kinematics.velocities = toVector(*velocities);
-    kinematics.accelerations = toVector(*accelerations);
-    scheme.endStep(kinematics);
+    scheme.endStep(kinematicsFrom("railcosimEndStep", time, *positions, *velocities, *accelerations));
     return 0L;
   });
 }

@@ -21,10 +21,10 @@ import time
 REPO = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 SOLVER = os.path.join(REPO, "freefem_scripts", "solvers", "box_elastodynamics.edp")
 
-# Table 4.1 of seed 002 (Ullrich 2022): steel beam 1000 x 100 x 100 mm, both ends clamped.
+# Table 4.1 of Ullrich 2022: steel beam 1000 x 100 x 100 mm, both ends clamped.
 LENGTH, WIDTH, HEIGHT = 1.0, 0.1, 0.1      # m
 YOUNGS_MODULUS, POISSON_RATIO = 210e9, 0.3  # Pa, -
-GRAVITY = 9.81                              # m/s^2, as in the seed's load derivation
+GRAVITY = 9.81                              # m/s^2, as in Ullrich 2022's load derivation
 
 
 def closed_form_deflection(line_load):

@@ -23,7 +23,7 @@ import subprocess
 import sys
 import time
 
-# Steel, as in the beam case of seed 002 (Table 4.1).
+# Steel, as in the beam case of Ullrich 2022 (Table 4.1).
 YOUNGS_MODULUS = 210e9   # Pa
 POISSON_RATIO = 0.3
 DENSITY = 7800.0         # kg/m^3
@@ -194,7 +194,7 @@ def cantilever_vibration(args):
     # what remains is solver round-off (measured 2e-10 over 700 steps).
     expect(drift <= 1e-8, "average-acceleration Newmark conserves energy: max relative drift %.2e" % drift)
 
-    # Bossak-Newmark (alpha_B = -0.1, gamma = 0.6, beta = 0.3025, seed 002 errata) is dissipative:
+    # Bossak-Newmark (alpha_B = -0.1, gamma = 0.6, beta = 0.3025, Ullrich 2022, its α read as α_B = -0.1) is dissipative:
     # the energy of the released beam (first mode plus the higher modes the release excites) must
     # never rise above its initial value and must end clearly lower (measured: 0.3 % lost in 200
     # steps, mostly from the higher modes). Step to step it may wiggle by ~1e-5 because the

@@ -153,7 +153,7 @@ RollingRun rollSphere(double rollingCoefficient, double slopeAngle, bool startRo
 }  // namespace
 
 BOOST_AUTO_TEST_CASE(flat_roll_out_stops_where_the_rigid_body_solution_stops_and_stays_still) {
-    // BROF-01 (reference/seed000_part1.md §5.3): slip then roll, a = −(5/7) η_r g, stop at t = 0.5097 s,
+    // BROF-01 (Irazábal 2017's BROF benchmark): slip then roll, a = −(5/7) η_r g, stop at t = 0.5097 s,
     // x = 0.18836 m (rigid-body analytic). The contact compliance (δ ≈ 5e-5 m) and the discrete step
     // perturb these by well under 1 %; 2 % leaves room without hiding a wrong deceleration (η_r = 0.1
     // would stop at 0.36 m).
@@ -175,7 +175,7 @@ BOOST_AUTO_TEST_CASE(flat_roll_out_stops_where_the_rigid_body_solution_stops_and
 BOOST_AUTO_TEST_CASE(slope_test_rolls_back_only_below_the_critical_coefficient) {
     // BROF-02, variant A (pure rolling from the start) on a 10° slope with v0 = 1 m/s uphill:
     // η_r < tan 10° = 0.176 rolls back down; η_r = 0.2 and 0.4 stop and stay, and the resting rolling
-    // torque is the same for both: m g R sin 10° (digest §5.3).
+    // torque is the same for both: m g R sin 10° (Irazábal 2017's BROF benchmark).
     const double slope = 10.0 * M_PI / 180.0;
     const RollingRun low = rollSphere(0.1, slope, true, 1.5, 0.2);
     BOOST_TEST(low.finalPosition < low.maxUphillPosition - 0.05);  // came back down by more than 5 cm
@@ -186,7 +186,7 @@ BOOST_AUTO_TEST_CASE(slope_test_rolls_back_only_below_the_critical_coefficient) 
         BOOST_TEST_CONTEXT("eta_r = " << eta) {
             BOOST_TEST(std::fabs(high.finalPosition - high.maxUphillPosition) < 1e-4);  // stays at the top
             // Rigid-body distance to the top, v0²/(2 (5/7) g (sin β + η_r cos β)): 0.1925 m and 0.1257 m
-            // (digest table); compliance and discretisation stay well inside 2 %.
+            // (Irazábal 2017's table); compliance and discretisation stay well inside 2 %.
             const double deceleration = 5.0 / 7.0 * 9.81 * (std::sin(slope) + eta * std::cos(slope));
             BOOST_TEST(high.maxUphillPosition == 1.0 / (2.0 * deceleration), boost::test_tools::tolerance(0.02));
             BOOST_TEST(high.largestSpinAfterStop < 1e-9);

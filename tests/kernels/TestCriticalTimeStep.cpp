@@ -42,7 +42,7 @@ BOOST_AUTO_TEST_CASE(spring_limit_separates_stable_from_unstable_leapfrog) {
     }
     const double undamped = springCriticalTimeStep(mass, stiffness, 0.0);
     BOOST_TEST(undamped / springCriticalTimeStep(mass, stiffness, dampingRatioFromRestitution(0.0)) == 28.5,
-               boost::test_tools::tolerance(0.02));  // digest §2.1 quotes "≈ 28×"
+               boost::test_tools::tolerance(0.02));  // Irazábal 2017 quotes "≈ 28×"
 }
 
 BOOST_AUTO_TEST_CASE(hertz_maximum_overlap_matches_a_simulated_impact) {
@@ -64,7 +64,7 @@ BOOST_AUTO_TEST_CASE(hertz_maximum_overlap_matches_a_simulated_impact) {
 }
 
 BOOST_AUTO_TEST_CASE(rayleigh_step_for_the_thesis_rolling_benchmark_material) {
-    // Digest §3.5: for ρ = 1056 kg/m³, E = 4e7 Pa, ν = 0.49, T_R ≈ 0.0291 R s (3 digits: 0.2 %).
+    // Irazábal 2017 §3.5: for ρ = 1056 kg/m³, E = 4e7 Pa, ν = 0.49, T_R ≈ 0.0291 R s (3 digits: 0.2 %).
     const double radius = 0.1;
     const double rayleigh = rayleighTimeStep(radius, 1056.0, shearModulus(4.0e7, 0.49), 0.49);
     BOOST_TEST(rayleigh == 0.0291 * radius, boost::test_tools::tolerance(2e-3));

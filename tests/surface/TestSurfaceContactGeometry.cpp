@@ -62,7 +62,7 @@ struct OracleContact {
     int region;
 };
 
-// "Closest point per element + Table 4.3 filter" (digest §4.4, regression H2-07). `sortedOrder` runs the
+// "Closest point per element + Table 4.3 filter" (Irazábal 2017 Table 4.3, regression H2-07). `sortedOrder` runs the
 // filter nearest first; otherwise in the given element order exactly as printed in Table 4.3
 // (a new contact is discarded if a stored one shadows it, stored ones it shadows are discarded).
 std::vector<OracleContact> oracleContacts(const std::vector<double>& positions, const std::vector<std::int32_t>& triangles,
@@ -393,7 +393,7 @@ BOOST_AUTO_TEST_CASE(h2_07_random_sphere_against_random_convex_mesh_matches_the_
             }
         }
     }
-    // The sampling exercised both regimes (these counts are what the seed gives; they guard against a
+    // The sampling exercised both regimes (these counts are what the sampling seed gives; they guard against a
     // generator change silently emptying the test).
     BOOST_TEST_MESSAGE("H2-07 convex: " << outsideWithContact << " outside samples with a contact, " << insideMulti
                                          << " inside samples with several, " << literalOrderDisagreements

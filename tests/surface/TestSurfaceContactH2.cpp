@@ -62,7 +62,7 @@ struct DropRecord {
 // sphere aimed at a point given in plane coordinates (x, z).
 DropRecord dropOnTiltedPlane(double aimX, double aimZ) {
     const SphereProperties sphere = tableFourFive();
-    const double dropHeight = 1.0;  // digest §4.6: 1 m of free fall before touching (its assumption)
+    const double dropHeight = 1.0;  // Irazábal 2017 §4.6: 1 m of free fall before touching (its assumption)
     const double timeStep = 1.0e-5;
     const Vec3 axis = Vec3{1.0, 2.0, 3.0} / std::sqrt(14.0);
     const double angle = 0.7;

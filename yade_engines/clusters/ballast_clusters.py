@@ -2,7 +2,7 @@
 
 Plain numpy/scipy (Debian python3-numpy, python3-scipy), so it runs under /usr/bin/python3 and inside YADE.
 
-Pipeline (thesis §5.9 of the digest, with a mesh-free integration instead of a tetrahedral mesh):
+Pipeline (Irazábal 2017 §5.9, with a mesh-free integration instead of a tetrahedral mesh):
   stone surface (closed convex triangle mesh) -> greedy maximal-inscribed-sphere cover of the requested size
   -> common radius inflation that minimises the symmetric-difference volume with the stone
   -> exact-in-z column integration of the sphere union (overlaps counted once): volume, centre of mass,
@@ -209,7 +209,7 @@ def sphereUnionMassProperties(spheres, density=1.0, columns=400, chunkRows=40):
 
 
 # --------------------------------------------------------------------------------------------------
-# Enclosing sphere (Irazábal 2017 eqs. 5.58-5.63 with the digest's corrections)
+# Enclosing sphere (Irazábal 2017 eqs. 5.58-5.63 with corrected indices)
 # --------------------------------------------------------------------------------------------------
 
 

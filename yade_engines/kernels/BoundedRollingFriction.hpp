@@ -1,4 +1,4 @@
-// Bounded rolling friction (BROF), Irazábal 2017 §5.2.1 with the corrections of reference/seed000_part1.md §5.2.
+// Bounded rolling friction (BROF), Irazábal 2017 §5.2.1, with eq. 5.4 corrected as docs/contact-models.md explains.
 #pragma once
 
 #include <cmath>

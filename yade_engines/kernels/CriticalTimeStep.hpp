@@ -9,7 +9,7 @@
 
 namespace railcosim::kernels {
 
-// Rayleigh-wave time T_R = π R sqrt(ρ/G) / (0.1631 ν + 0.8766) (O'Sullivan & Bray 2004; Irazábal digest
+// Rayleigh-wave time T_R = π R sqrt(ρ/G) / (0.1631 ν + 0.8766) (O'Sullivan & Bray 2004; Irazábal 2017
 // §3.5). Use Δt = 0.1–0.3 T_R for the smallest particle. Material-only: ignores damping and contact law. [s]
 RAILCOSIM_HOST_DEVICE inline double rayleighTimeStep(double radius, double density, double shearModulus,
                                                      double poissonRatio) {

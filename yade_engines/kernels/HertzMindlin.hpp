@@ -74,7 +74,7 @@ RAILCOSIM_HOST_DEVICE inline double hertzElasticNormalForce(const HertzMindlinPa
 }
 
 // Viscous coefficient c = 2 γ sqrt(m* k) (eqs. 3.15 and 3.26b; pass k_n for normal, k_t for tangential —
-// the digest's erratum 5 resolves eq. 3.22 in favour of k_t). [N s/m]
+// eq. 3.22's text and formula disagree; read in favour of k_t). [N s/m]
 // An undamped contact returns exactly 0 even when m* is infinite (two non-dynamic bodies), instead of 0·∞.
 RAILCOSIM_HOST_DEVICE inline double viscousDampingCoefficient(double dampingRatio, double effectiveMass, double stiffness) {
     if (dampingRatio == 0.0) return 0.0;
@@ -87,7 +87,7 @@ RAILCOSIM_HOST_DEVICE inline double viscousDampingCoefficient(double dampingRati
 // linear spring–dashpot closed form (Irazábal eq. 3.17) does not apply: it is ≈10 % off in γ.
 // Relation used: the polynomial fit of Thornton, Cummins & Cleary (2013, Powder Technol. 233, 30–46)
 // for this Hertzian model, γ = sqrt(1/(1 − (1+e)² exp(α)) − 1), α = e(h1 + e(h2 + … + e h10))
-// (coefficients as given in reference/seed000_part1.md §3.3). Verified against a simulated two-sphere
+// (coefficients as given by Irazábal 2017, §3.3). Verified against a simulated two-sphere
 // impact in tests/kernels/TestHertzMindlin.cpp. e is clamped to [0.001, 0.999] where the fit is valid;
 // e ≥ 0.999 gives γ = 0 (elastic). e = 0 therefore maps to γ(0.001) ≈ 14.2 (strongly overdamped).
 RAILCOSIM_HOST_DEVICE inline double dampingRatioFromRestitution(double restitution) {

@@ -47,7 +47,7 @@ RAILCOSIM_HOST_DEVICE inline double hertzStiffnessFromForce(double effectiveYoun
 }
 
 // Fills the derived fields. Equations of Tolomeo & McDowell (2022) with the exponent of eq. 5 as
-// corrected in reference/seed001.md §1.3 (1/(0.2567 D_f)):
+// corrected to 1/(0.2567 D_f) (the printed exponent does not reproduce the paper's own curves):
 //   eq. 5  A0 = (3/4) π^{3/2} R h (20 / (π^{3/2} D_f))^{1/(0.2567 D_f)}
 //   eq. 4  F(A0) = (4E*/(3R)) (A0/π)^{3/2}
 //   eq. 1  k_n = (π/10) D_f E* √A0 (F/(h E* √A0))^{0.2567 D_f} = C F^γ

@@ -27,7 +27,7 @@ RAILCOSIM_HOST_DEVICE inline double criticalNormalForce(const StressDependentFri
 }
 
 // μ = μ0 for F_n ≤ F_n,c and μ = μ0 (F_n/F_n,c)^γ above (eq. 6.6). F_n is the total normal force
-// (elastic + viscous, ≥ 0), as in the thesis author's own implementation (digest erratum 7).
+// (elastic + viscous, ≥ 0), as in the thesis author's own implementation.
 // Scope: the caller applies it between members of DIFFERENT clusters only; cluster–wall and sphere
 // contacts keep μ0 (thesis §6.3.4, Fig. 6.15).
 RAILCOSIM_HOST_DEVICE inline double stressDependentFrictionCoefficient(const StressDependentFrictionParams& p,

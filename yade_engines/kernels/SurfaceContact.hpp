@@ -163,7 +163,7 @@ RAILCOSIM_HOST_DEVICE inline bool isShadowed(const SurfaceContact& candidate, co
 // ---------------------------------------------------------------------------------------------------
 // Per-element part of H² (Irazábal 2017 Table 4.2): facet check, then edge checks on the edges the
 // projection lies outside of, each falling back to a vertex check. Within one convex element the
-// distance hierarchy keeps only the element's closest point (digest §4.4), so the element yields at
+// distance hierarchy keeps only the element's closest point (Irazábal 2017, Table 4.3), so the element yields at
 // most one contact: its closest point if nearer than the radius. Edge and vertex contacts are
 // computed in a canonical orientation and assigned to a canonical triangle, so the same feature found
 // from two triangles gives two bitwise-identical contacts. The velocity is not filled here.

@@ -194,7 +194,7 @@ RAILCOSIM_HOST_DEVICE inline ConvexCore stoneCore(const SystemView& s, int i) {
 
 // ---------------------------------------------------------------------------------------------------
 // Integration: velocity Verlet for translation and the Zhao–van Wachem predictor–corrector for rotation,
-// both from the shared kernels (kernels/RotationIntegrators.hpp, seed000 §5.5 eqs. 5.47–5.55), split into
+// both from the shared kernels (kernels/RotationIntegrators.hpp, Irazábal 2017 §5.5 eqs. 5.47–5.55), split into
 // PREDICT before and CORRECT after the force evaluation.
 // ---------------------------------------------------------------------------------------------------
 RAILCOSIM_HOST_DEVICE inline Vec3 principalInertia(const ShapeData& shape) { return Vec3{shape.inertia[0], shape.inertia[1], shape.inertia[2]}; }
@@ -450,7 +450,7 @@ RAILCOSIM_HOST_DEVICE inline ContactGeometry geometryFromDistance(const ConvexCo
         gap = -coreOverlapAlong(A, B, n);
         midpoint = 0.5 * (support(A, n) + support(B, -n));
     }
-    const double overlap = radiusA + radiusB - gap;  // seed002 eq. 2.5: δ = r_A + r_B − Δ
+    const double overlap = radiusA + radiusB - gap;  // Ullrich 2022 eq. 2.5: δ = r_A + r_B − Δ
     // Mid-plane of the overlapping dilation spheres, measured along n from A's core surface.
     const double planeHeight = kernels::dot(midpoint, n) + 0.5 * (radiusA - radiusB);
     const Vec3 fallback = midpoint + (0.5 * (radiusA - radiusB)) * n;
@@ -477,7 +477,7 @@ RAILCOSIM_HOST_DEVICE inline ContactGeometry contactGeometry(const ConvexCore& A
 
 // Contact law of a touching candidate: Hertz normal force with damping and the incremental Coulomb-capped
 // tangential force (kernels/HertzMindlin.hpp); updates the slot's history and returns the force on B.
-// effectiveRadius: Hertz curvature of the dilation (seed002 eq. 2.20: the dilating spheres touch, so
+// effectiveRadius: Hertz curvature of the dilation (Ullrich 2022 eq. 2.20: the dilating spheres touch, so
 // R* = r_A r_B / (r_A + r_B); r_A for a flat wall).
 RAILCOSIM_HOST_DEVICE inline Vec3 contactForce(const ContactGeometry& g, double effectiveRadius, double effectiveMass, const ContactLawConstants& law,
                                                const ContactKinematics& kinematicsA, const ContactKinematics& kinematicsB, double timeStep,

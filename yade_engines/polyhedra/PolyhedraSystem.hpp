@@ -10,7 +10,7 @@
 namespace railcosim::polyhedra {
 
 /// A convex core polyhedron shared by every stone of one shape (a "shape template"). The stone is the
-/// Minkowski sum of the core and a sphere of radius `dilationRadius` (seed002 §2.3, eq. 2.4).
+/// Minkowski sum of the core and a sphere of radius `dilationRadius` (Ullrich 2022 §2.3, eq. 2.4).
 struct ShapeTemplate {
     std::vector<double> vertices;          ///< core vertices, 3 per vertex, any body frame [m]
     std::vector<std::int32_t> triangles;   ///< core surface, 3 vertex indices each, outward (CCW) [-]
@@ -30,7 +30,7 @@ struct ShapeProperties {
     std::array<double, 3> centroid{};
 };
 
-/// Material of stones and of walls. Hertz–Mindlin with the dilation curvature (seed002 eq. 2.20–2.24),
+/// Material of stones and of walls. Hertz–Mindlin with the dilation curvature (Ullrich 2022 eqs. 2.20–2.24),
 /// damping from restitution and Coulomb friction: kernels/HertzMindlin.hpp.
 struct Material {
     double youngModulus = 1e10;   ///< E [Pa]
@@ -55,7 +55,7 @@ struct Parameters {
     int maxNeighbours = 24;                        ///< candidate partners stored per stone (j > i) [-]
     int maxWallNeighbours = 8;                     ///< candidate triangles stored per stone [-]
     /// Patch centring, fraction of r_d [-]. 0 (default): the force acts at the closest points of the cores
-    /// (seed002: two virtual spheres there), a conservative force field. > 0: vertices within this band of
+    /// (Ullrich 2022: two virtual spheres there), a conservative force field. > 0: vertices within this band of
     /// the support height form a face and face–face / edge–face contacts act at the centre of the
     /// overlapping region; more faithful torques for stones resting on faces, but the point jumps when a
     /// vertex enters the band, which feeds energy into resting piles (measured: residual speeds of

@@ -13,9 +13,9 @@ namespace railcosim {
 class DemParticipant;
 class FemParticipant;
 
-/// The schemes of seed 002 (Sec. 3.4) and the implicit window iteration (docs/coupling-schemes.md).
+/// The schemes of Ullrich 2022 (Sec. 3.4) and the implicit window iteration (docs/coupling-schemes.md).
 enum class CouplingScheme {
-  JustInTime,  // DEM first; surface P + V*tau + A*tau^2/2 from the kinematics received at t_i (seed 002, Alg. 3)
+  JustInTime,  // DEM first; surface P + V*tau + A*tau^2/2 from the kinematics received at t_i (Ullrich 2022, Alg. 3)
   Predictive,  // FEM first; surface moves linearly from P(t_i) to P(t_i+1): V = (P1-P0)/dt_F, A = 0 (eq. 3.4-3.7)
   Implicit,    // DEM first, window repeated until the FEM end state agrees with the DEM's (ImplicitCoupling.hpp)
 };

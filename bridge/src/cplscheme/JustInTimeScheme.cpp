@@ -1,4 +1,4 @@
-// Just-in-time (seed 002, Alg. 3): the DEM simulates window i first, on the surface extrapolated from the FEM
+// Just-in-time (Ullrich 2022, Alg. 3): the DEM simulates window i first, on the surface extrapolated from the FEM
 // state at t_i; the FEM then steps with the window's end forces and answers with its state at t_i+1.
 #include "cplscheme/SchemeRegistry.hpp"
 #include "railcosim/Participant.hpp"

@@ -1,4 +1,4 @@
-// Predictive (seed 002, Sec. 3.4): the FEM steps first with the previous window's forces (none for its first
+// Predictive (Ullrich 2022, Sec. 3.4): the FEM steps first with the previous window's forces (none for its first
 // step); the DEM then moves the surface linearly between the FEM positions at the window ends (eq. 3.4-3.7).
 #include "cplscheme/SchemeRegistry.hpp"
 #include "railcosim/Participant.hpp"

@@ -35,9 +35,9 @@ struct Row {
   std::size_t forceBytes = 0;
   std::size_t kinematicsBytes = 0;
   int windows = 0;
-  double rawRoundTrip = 0.0;     // s per window, plain ZeroMQ
-  double bridgeRoundTrip = 0.0;  // s per window through FemParticipant/DemParticipant
-  double bridgeSecondsPerExchange = 0.0;  // encode + transfer inside the bridge, both sides, per message
+  double rawRoundTrip = 0.0;             // s per window, plain ZeroMQ
+  double bridgeRoundTrip = 0.0;          // s per window through FemParticipant/DemParticipant
+  double bridgeSecondsPerExchange = 0.0; // encode + transfer inside the bridge, both sides, per message
   double encodeSecondsPerExchange = 0.0;
 };
 
@@ -144,8 +144,11 @@ Row measureBridge(const std::string& endpoint, long nodesWanted, int windows, in
 int main(int argc, char** argv) {
   try {
     const dummy::Options options(argc, argv,
-                                 {{"nodes", "1000,10000,100000"}, {"transports", "ipc,tcp"}, {"port", "5790"},
-                                  {"total-bytes", "2e8"}, {"json", ""}},
+                                 {{"nodes", "1000,10000,100000"},
+                                  {"transports", "ipc,tcp"},
+                                  {"port", "5790"},
+                                  {"total-bytes", "2e8"},
+                                  {"json", ""}},
                                  usage);
     const double totalBytes = options.number("total-bytes");
     int port = static_cast<int>(options.integer("port"));
@@ -154,25 +157,25 @@ int main(int argc, char** argv) {
                 "raw us/win", "bridge us/win", "ratio", "bridge us/msg", "encode us/msg");
     for (const std::string& transport : parseWords(options.text("transports"))) {
       for (long nodes : parseList(options.text("nodes"))) {
-        const double bytesPerWindow = 4.0 * 24.0 * static_cast<double>(nodes);  // forces + P,V,A
+        const double bytesPerWindow = 4.0 * 24.0 * static_cast<double>(nodes); // forces + P,V,A
         const int windows = std::clamp(static_cast<int>(totalBytes / bytesPerWindow), 20, 5000);
         const int warmup = std::max(5, windows / 10);
         auto endpointFor = [&]() {
           if (transport == "tcp") return "tcp://127.0.0.1:" + std::to_string(port++);
           if (transport == "ipc") {
-            return "ipc:///tmp/railcosim-benchmark-" + std::to_string(getpid()) + "-" + std::to_string(port++) + ".sock";
+            return "ipc:///tmp/railcosim-benchmark-" + std::to_string(getpid()) + "-" + std::to_string(port++) +
+                   ".sock";
           }
           throw Error("unknown transport '" + transport + "'; use ipc or tcp");
         };
         Row row = measureBridge(endpointFor(), nodes, windows, warmup);
         row.transport = transport;
-        row.rawRoundTrip =
-            com::measureRawRoundTrip(endpointFor(), row.forceBytes, row.kinematicsBytes, windows, warmup)
-                .secondsPerRoundTrip;
+        row.rawRoundTrip = com::measureRawRoundTrip(endpointFor(), row.forceBytes, row.kinematicsBytes, windows, warmup)
+                               .secondsPerRoundTrip;
         std::printf("%-5s %8zu %10zu %10zu %7d %12.1f %12.1f %7.2f %14.1f %12.1f\n", row.transport.c_str(), row.nodes,
-                    row.forceBytes, row.kinematicsBytes, row.windows, row.rawRoundTrip * 1e6,
-                    row.bridgeRoundTrip * 1e6, row.bridgeRoundTrip / row.rawRoundTrip,
-                    row.bridgeSecondsPerExchange * 1e6, row.encodeSecondsPerExchange * 1e6);
+                    row.forceBytes, row.kinematicsBytes, row.windows, row.rawRoundTrip * 1e6, row.bridgeRoundTrip * 1e6,
+                    row.bridgeRoundTrip / row.rawRoundTrip, row.bridgeSecondsPerExchange * 1e6,
+                    row.encodeSecondsPerExchange * 1e6);
         std::fflush(stdout);
         rows.push_back(row);
       }

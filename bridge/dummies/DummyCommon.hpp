@@ -45,8 +45,8 @@ long sideForNodes(long nodes);
 /// window with constant force by the exact solution, so the DEM side can check the closed form
 /// u(t) = (F/k) (1 - cos(w (t - t0))) from rest at t0 to round-off.
 struct SpringMass {
-  double mass = 1.0;          // kg per node
-  double stiffness = 1.0e6;   // N/m per node
+  double mass = 1.0;        // kg per node
+  double stiffness = 1.0e6; // N/m per node
   double omega() const { return std::sqrt(stiffness / mass); }
   /// Advances (u, v) by dt under constant force; returns the acceleration at the end.
   double advance(double& displacement, double& velocity, double force, double dt) const;
@@ -55,8 +55,8 @@ struct SpringMass {
 /// The participant settings both stand-ins take from --name, --endpoint, --timeout, --heartbeat.
 ParticipantConfig participantConfig(const Options& options, CouplingScheme scheme);
 
-/// Runs a stand-in's main body, prints the usage on --help, and maps failures to its documented exit status (2 peer lost, 3 protocol
-/// error, 1 anything else), printing "PROGRAM: KIND: message" on stderr.
+/// Runs a stand-in's main body, prints the usage on --help, and maps failures to its documented exit status (2 peer
+/// lost, 3 protocol error, 1 anything else), printing "PROGRAM: KIND: message" on stderr.
 int runReportingErrors(const char* program, const std::function<int()>& body);
 
 } // namespace railcosim::dummy

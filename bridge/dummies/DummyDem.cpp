@@ -24,7 +24,8 @@ const char* usage =
     "  --heartbeat S    transport heartbeat [s] (1)\n"
     "  --load F         total vertical force of the block on the surface [N] (-1000, i.e. downwards)\n"
     "  --scheme X       justInTime | predictive | implicit (justInTime); must match the FEM side\n"
-    "  --contact-stiffness KC  a scheme that iterates (implicit) only: the particles also act as a spring of KC N/m per node on the\n"
+    "  --contact-stiffness KC  a scheme that iterates (implicit) only: the particles also act as a spring of KC N/m "
+    "per node on the\n"
     "                   surface, F = load/nodes - KC u(t_i+1); checked against the monolithic solution (0)\n"
     "  --tolerance T --absolute-tolerance A --max-iterations K --relaxation W --no-aitken\n"
     "                   implicit window iteration (1e-10, 0 m, 30, 0.5, Aitken on)\n"
@@ -38,11 +39,23 @@ const char* usage =
 int main(int argc, char** argv) {
   return dummy::runReportingErrors("railcosim_dummy_dem", [&]() -> int {
     const dummy::Options options(argc, argv,
-                                 {{"endpoint", "ipc:///tmp/railcosim-dummy.sock"}, {"name", "dem"}, {"windows", "100"},
-                                  {"timeout", "60"}, {"heartbeat", "1"}, {"load", "-1000"}, {"scheme", "justInTime"},
-                                  {"mass", "1"}, {"stiffness", "1e6"}, {"no-check", "false"}, {"compute-ms", "0"},
-                                  {"contact-stiffness", "0"}, {"tolerance", "1e-10"}, {"max-iterations", "30"},
-                                  {"relaxation", "0.5"}, {"no-aitken", "false"}, {"absolute-tolerance", "0"}},
+                                 {{"endpoint", "ipc:///tmp/railcosim-dummy.sock"},
+                                  {"name", "dem"},
+                                  {"windows", "100"},
+                                  {"timeout", "60"},
+                                  {"heartbeat", "1"},
+                                  {"load", "-1000"},
+                                  {"scheme", "justInTime"},
+                                  {"mass", "1"},
+                                  {"stiffness", "1e6"},
+                                  {"no-check", "false"},
+                                  {"compute-ms", "0"},
+                                  {"contact-stiffness", "0"},
+                                  {"tolerance", "1e-10"},
+                                  {"max-iterations", "30"},
+                                  {"relaxation", "0.5"},
+                                  {"no-aitken", "false"},
+                                  {"absolute-tolerance", "0"}},
                                  usage);
     const CouplingScheme scheme = parseCouplingScheme(options.text("scheme"));
     long windows = options.integer("windows");
@@ -60,7 +73,7 @@ int main(int argc, char** argv) {
 
     SchemeSettings settings;
     settings.scheme = scheme;
-    settings.implicit.tolerance = options.number("tolerance");  // read by a scheme that iterates a window
+    settings.implicit.tolerance = options.number("tolerance"); // read by a scheme that iterates a window
     settings.implicit.absoluteTolerance = options.number("absolute-tolerance");
     settings.implicit.maxIterations = static_cast<int>(options.integer("max-iterations"));
     settings.implicit.relaxation = options.number("relaxation");
@@ -86,9 +99,10 @@ int main(int argc, char** argv) {
       model.advance(u, v, force, dt);
       return std::pair<double, double>(u, v);
     };
-    const double C = advanced(0.0, 0.0, 1.0).first;  // displacement per unit constant force over one window
+    const double C = advanced(0.0, 0.0, 1.0).first; // displacement per unit constant force over one window
     double oracleU = 0.0, oracleV = 0.0, amplitude = 0.0;
-    double maxError[3] = {0.0, 0.0, 0.0};  // closed form: relative to the amplitudes F/k, w F/k, F/m; bed: u relative to max |u|
+    double maxError[3] = {0.0, 0.0,
+                          0.0}; // closed form: relative to the amplitudes F/k, w F/k, F/m; bed: u relative to max |u|
     double maxBedError = 0.0;
     auto checkKinematics = [&](const NodalKinematics& kinematics) {
       if (contactStiffness != 0.0) {
@@ -99,11 +113,13 @@ int main(int argc, char** argv) {
         oracleV = next.second;
         amplitude = std::max(amplitude, std::abs(oracleU));
         for (std::size_t n = 0; n < nodes; ++n)
-          maxBedError = std::max(maxBedError, std::abs(kinematics.positions[3 * n + 2] - setup.mesh.coordinates[3 * n + 2] - oracleU));
+          maxBedError = std::max(
+              maxBedError, std::abs(kinematics.positions[3 * n + 2] - setup.mesh.coordinates[3 * n + 2] - oracleU));
         return;
       }
       const double s = kinematics.time - lagTime;
-      const double expected[3] = {staticDisplacement * (1.0 - std::cos(w * s)), staticDisplacement * w * std::sin(w * s),
+      const double expected[3] = {staticDisplacement * (1.0 - std::cos(w * s)),
+                                  staticDisplacement * w * std::sin(w * s),
                                   s > 0.0 ? nodalForce / model.mass * std::cos(w * s) : 0.0};
       const double scale[3] = {std::abs(staticDisplacement), std::abs(staticDisplacement * w),
                                std::abs(nodalForce / model.mass)};
@@ -122,7 +138,8 @@ int main(int argc, char** argv) {
       do {
         coupling->surfaceAt(dt, positions, velocities);
         for (std::size_t n = 0; n < nodes; ++n)
-          forces[3 * n + 2] = nodalForce - contactStiffness * (positions[3 * n + 2] - setup.mesh.coordinates[3 * n + 2]);
+          forces[3 * n + 2] =
+              nodalForce - contactStiffness * (positions[3 * n + 2] - setup.mesh.coordinates[3 * n + 2]);
         if (computeTime.count() > 0) std::this_thread::sleep_for(computeTime);
         result = coupling->completeWindow(forces, static_cast<double>(window + 1) * dt, true);
       } while (result.repeat);
@@ -150,18 +167,22 @@ int main(int argc, char** argv) {
     const long passes = coupling->iterates() ? iterations.passes : windows;
     const BridgeStatistics& statistics = participant.statistics();
     const double perExchange = statistics.exchanges > 0 ? 1e6 / static_cast<double>(statistics.exchanges) : 0.0;
-    std::printf("railcosim_dummy_dem: %s %ld windows, %ld passes (%.2f per window), %ld not converged, %llu exchanges, "
-                "%zu nodes, %s%s, contact stiffness %g N/m, bridge %.1f us/exchange (encode %.1f + transfer %.1f), "
-                "wait %.1f us/exchange, max relative error u %.2e v %.2e a %.2e, vs monolithic %.2e%s\n",
-                passed ? "OK" : "FAILED", windows, passes, windows > 0 ? static_cast<double>(passes) / windows : 0.0,
-                unconverged, static_cast<unsigned long long>(statistics.exchanges), nodes, toString(scheme).c_str(),
-                coupling->iterates() && settings.implicit.aitken ? " (Aitken)" : "", contactStiffness,
-                statistics.bridgeSeconds() * perExchange, statistics.encodeSeconds * perExchange,
-                statistics.transferSeconds * perExchange, statistics.waitSeconds * perExchange, maxError[0], maxError[1],
-                maxError[2], bedError, check ? "" : " (not checked)");
+    std::printf(
+        "railcosim_dummy_dem: %s %ld windows, %ld passes (%.2f per window), %ld not converged, %llu exchanges, "
+        "%zu nodes, %s%s, contact stiffness %g N/m, bridge %.1f us/exchange (encode %.1f + transfer %.1f), "
+        "wait %.1f us/exchange, max relative error u %.2e v %.2e a %.2e, vs monolithic %.2e%s\n",
+        passed ? "OK" : "FAILED", windows, passes, windows > 0 ? static_cast<double>(passes) / windows : 0.0,
+        unconverged, static_cast<unsigned long long>(statistics.exchanges), nodes, toString(scheme).c_str(),
+        coupling->iterates() && settings.implicit.aitken ? " (Aitken)" : "", contactStiffness,
+        statistics.bridgeSeconds() * perExchange, statistics.encodeSeconds * perExchange,
+        statistics.transferSeconds * perExchange, statistics.waitSeconds * perExchange, maxError[0], maxError[1],
+        maxError[2], bedError, check ? "" : " (not checked)");
     if (unconverged > 0)
-      std::fprintf(stderr, "railcosim_dummy_dem: window %ld did not converge within %d passes (last residual %.3e m, limit %.3e m); "
-                   "stopped there\n", windows - 1, settings.implicit.maxIterations, iterations.lastResidual, iterations.lastLimit);
+      std::fprintf(
+          stderr,
+          "railcosim_dummy_dem: window %ld did not converge within %d passes (last residual %.3e m, limit %.3e m); "
+          "stopped there\n",
+          windows - 1, settings.implicit.maxIterations, iterations.lastResidual, iterations.lastLimit);
     return passed ? 0 : 1;
   });
 }

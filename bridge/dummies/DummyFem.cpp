@@ -35,10 +35,20 @@ const char* usage =
 int main(int argc, char** argv) {
   return dummy::runReportingErrors("railcosim_dummy_fem", [&]() -> int {
     const dummy::Options options(argc, argv,
-                                 {{"endpoint", "ipc:///tmp/railcosim-dummy.sock"}, {"name", "fem"}, {"windows", "0"},
-                                  {"timeout", "60"}, {"heartbeat", "1"}, {"nodes", "100"}, {"nx", "0"}, {"ny", "0"},
-                                  {"spacing", "0.1"}, {"dt", "1e-4"}, {"scheme", "justInTime"}, {"mass", "1"},
-                                  {"stiffness", "1e6"}, {"compute-ms", "0"}},
+                                 {{"endpoint", "ipc:///tmp/railcosim-dummy.sock"},
+                                  {"name", "fem"},
+                                  {"windows", "0"},
+                                  {"timeout", "60"},
+                                  {"heartbeat", "1"},
+                                  {"nodes", "100"},
+                                  {"nx", "0"},
+                                  {"ny", "0"},
+                                  {"spacing", "0.1"},
+                                  {"dt", "1e-4"},
+                                  {"scheme", "justInTime"},
+                                  {"mass", "1"},
+                                  {"stiffness", "1e6"},
+                                  {"compute-ms", "0"}},
                                  usage);
     const CouplingScheme scheme = parseCouplingScheme(options.text("scheme"));
     const long side = dummy::sideForNodes(options.integer("nodes"));
@@ -63,7 +73,7 @@ int main(int argc, char** argv) {
     participant.initialize(mesh, dt, state);
 
     // One FEM step t_i -> t_i+1 with the vertical nodal forces in appliedForce.
-    std::uint64_t passes = 0;  // FEM solves (a scheme that repeats windows solves a window once per pass)
+    std::uint64_t passes = 0; // FEM solves (a scheme that repeats windows solves a window once per pass)
     auto step = [&](std::uint64_t window) {
       ++passes;
       if (computeTime.count() > 0) std::this_thread::sleep_for(computeTime);
@@ -82,7 +92,8 @@ int main(int argc, char** argv) {
     std::vector<double> savedDisplacement, savedVelocity;
     while (maxWindows <= 0 || coupling->windowsReceived() < static_cast<std::uint64_t>(maxWindows)) {
       if (!coupling->beginStep(forces)) break;
-      if (maxWindows > 0 && coupling->window() >= static_cast<std::uint64_t>(maxWindows)) break;  // no step past the last window
+      if (maxWindows > 0 && coupling->window() >= static_cast<std::uint64_t>(maxWindows))
+        break; // no step past the last window
       if (coupling->requiresWritingCheckpoint()) {
         savedDisplacement = displacement;
         savedVelocity = velocity;
@@ -99,13 +110,13 @@ int main(int argc, char** argv) {
     participant.finalize();
     const BridgeStatistics& statistics = participant.statistics();
     const double perExchange = statistics.exchanges > 0 ? 1e6 / static_cast<double>(statistics.exchanges) : 0.0;
-    std::printf("railcosim_dummy_fem: OK %llu windows, %llu FEM solves, %llu exchanges, %zu nodes, %s, bridge %.1f us/exchange "
-                "(encode %.1f + transfer %.1f), wait %.1f us/exchange\n",
-                static_cast<unsigned long long>(window), static_cast<unsigned long long>(passes),
-                static_cast<unsigned long long>(statistics.exchanges), nodes,
-                toString(scheme).c_str(), statistics.bridgeSeconds() * perExchange,
-                statistics.encodeSeconds * perExchange, statistics.transferSeconds * perExchange,
-                statistics.waitSeconds * perExchange);
+    std::printf(
+        "railcosim_dummy_fem: OK %llu windows, %llu FEM solves, %llu exchanges, %zu nodes, %s, bridge %.1f us/exchange "
+        "(encode %.1f + transfer %.1f), wait %.1f us/exchange\n",
+        static_cast<unsigned long long>(window), static_cast<unsigned long long>(passes),
+        static_cast<unsigned long long>(statistics.exchanges), nodes, toString(scheme).c_str(),
+        statistics.bridgeSeconds() * perExchange, statistics.encodeSeconds * perExchange,
+        statistics.transferSeconds * perExchange, statistics.waitSeconds * perExchange);
     return 0;
   });
 }

@@ -20,9 +20,7 @@ namespace {
 
 using Clock = std::chrono::steady_clock;
 
-double secondsSince(Clock::time_point start) {
-  return std::chrono::duration<double>(Clock::now() - start).count();
-}
+double secondsSince(Clock::time_point start) { return std::chrono::duration<double>(Clock::now() - start).count(); }
 
 std::string formatSeconds(double seconds) {
   std::ostringstream text;
@@ -34,7 +32,9 @@ std::string formatSeconds(double seconds) {
 class Link {
 public:
   Link(ParticipantConfig config, protocol::Role role)
-      : config_(std::move(config)), role_(role), peerRole_(role == protocol::Role::Fem ? "DEM" : "FEM"),
+      : config_(std::move(config)),
+        role_(role),
+        peerRole_(role == protocol::Role::Fem ? "DEM" : "FEM"),
         uncaughtAtStart_(std::uncaught_exceptions()) {
     config::validate(config_, role == protocol::Role::Fem ? "fem" : "dem");
   }
@@ -81,7 +81,7 @@ public:
       throw Error(self() + ": " + error.what());
     }
     if (role_ == protocol::Role::Fem) {
-      config_.endpoint = channel_->endpoint();  // as bound: a '*' host or port resolved
+      config_.endpoint = channel_->endpoint(); // as bound: a '*' host or port resolved
       log(LogLevel::Info, self() + ": listening on " + config_.endpoint);
     }
   }
@@ -123,8 +123,8 @@ public:
     }
     markClosed("the connection to the peer ended with an error");
     std::ostringstream text;
-    text << self() << ": could not hand " << what << " to " << peerLabel() << " on " << config_.endpoint
-         << " within " << formatSeconds(config_.timeoutSeconds) << " (the peer does not read its messages); "
+    text << self() << ": could not hand " << what << " to " << peerLabel() << " on " << config_.endpoint << " within "
+         << formatSeconds(config_.timeoutSeconds) << " (the peer does not read its messages); "
          << "raise timeoutSeconds if the " << peerRole_ << " side is just slow";
     throw PeerLostError(text.str());
   }
@@ -163,7 +163,7 @@ public:
     com::Status status = com::Status::Ok;
     try {
       status = channel_->receive(frame, config_.timeoutSeconds, timing);
-    } catch (const ProtocolError& error) {  // a multi-part message: told to the peer like any bad message
+    } catch (const ProtocolError& error) { // a multi-part message: told to the peer like any bad message
       rejectPeer(error.what(), waitingFor);
     }
     statistics_.transferSeconds += timing.transferSeconds;
@@ -179,9 +179,10 @@ public:
     if (status == com::Status::PeerSilent) {
       markClosed("the peer fell silent");
       std::ostringstream text;
-      text << self() << ": " << peerLabel() << " on " << config_.endpoint << " sent nothing, not even its keepalive, for "
-           << formatSeconds(3 * config_.heartbeatSeconds) << " while this side waited for " << waitingFor << "; the "
-           << peerRole_ << " process is frozen (stopped, swapped out or stuck in a system call) or the network is gone";
+      text << self() << ": " << peerLabel() << " on " << config_.endpoint
+           << " sent nothing, not even its keepalive, for " << formatSeconds(3 * config_.heartbeatSeconds)
+           << " while this side waited for " << waitingFor << "; the " << peerRole_
+           << " process is frozen (stopped, swapped out or stuck in a system call) or the network is gone";
       throw PeerLostError(text.str());
     }
     if (status == com::Status::Timeout) {
@@ -272,8 +273,9 @@ public:
 
   std::string disconnectedMessage(const std::string& doing) const {
     std::ostringstream text;
-    text << self() << ": " << peerLabel() << " disconnected from " << config_.endpoint << " while " << doing
-         << "; the " << peerRole_ << " process probably died - check its log (a message larger than the protocol "
+    text << self() << ": " << peerLabel() << " disconnected from " << config_.endpoint << " while " << doing << "; the "
+         << peerRole_
+         << " process probably died - check its log (a message larger than the protocol "
             "allows also ends the connection)";
     return text.str();
   }
@@ -339,8 +341,10 @@ public:
                  waitingFor);
     }
     if (hello.participantName == config_.name) {
-      rejectPeer("both participants are named '" + config_.name + "'; give them distinct names so errors and logs "
-                 "say which side is meant", waitingFor);
+      rejectPeer("both participants are named '" + config_.name +
+                     "'; give them distinct names so errors and logs "
+                     "say which side is meant",
+                 waitingFor);
     }
     if (!hello.couplingScheme.empty() && !config_.couplingScheme.empty() &&
         hello.couplingScheme != toString(parseCouplingScheme(config_.couplingScheme))) {
@@ -441,10 +445,16 @@ void FemParticipant::initialize(const InterfaceMesh& mesh, double femTimeStep, c
   const std::string waitingFor = "the Hello of a DEM participant";
   auto [frame, header] = link.receive(waitingFor, false);
   if (header.type != protocol::MessageType::Hello) link.unexpected(header, "Hello");
-  const protocol::Hello hello = link.decodeBody([&] { return protocol::decodeHello(header, frame.data()); }, waitingFor);
+  const protocol::Hello hello =
+      link.decodeBody([&] { return protocol::decodeHello(header, frame.data()); }, waitingFor);
   link.checkHello(hello, protocol::Role::Dem, waitingFor);
-  link.send(link.encode([&](auto buffer) { return protocol::encodeHello(link.ownHello(), protocol::protocolVersion, std::move(buffer)); }), "the Hello", false);
-  link.send(link.encode([&](auto buffer) { return protocol::encodeMesh(mesh, femTimeStep, initial, std::move(buffer)); }), "the interface mesh", false);
+  link.send(link.encode([&](auto buffer) {
+    return protocol::encodeHello(link.ownHello(), protocol::protocolVersion, std::move(buffer));
+  }),
+            "the Hello", false);
+  link.send(
+      link.encode([&](auto buffer) { return protocol::encodeMesh(mesh, femTimeStep, initial, std::move(buffer)); }),
+      "the interface mesh", false);
   link.setNodeCount(mesh.nodeCount());
   link.setHandshakeDone();
   log(LogLevel::Info, link.self() + ": coupled with DEM participant '" + hello.participantName + "' on " +
@@ -461,7 +471,12 @@ std::optional<ForceMessage> FemParticipant::receiveForces() {
   const std::string waitingFor = windowText("forces", order.forcesWindows());
   auto [frame, header] = link.receive(waitingFor, true);
   if (header.type == protocol::MessageType::Finalize) {
-    link.decodeBody([&] { protocol::decodeFinalize(header); return 0; }, waitingFor);
+    link.decodeBody(
+        [&] {
+          protocol::decodeFinalize(header);
+          return 0;
+        },
+        waitingFor);
     link.setPeerFinalized();
     log(LogLevel::Info, link.self() + ": " + link.peerLabel() + " finalized the run after " +
                             std::to_string(order.forcesWindows()) + " windows");
@@ -470,8 +485,8 @@ std::optional<ForceMessage> FemParticipant::receiveForces() {
   if (header.type != protocol::MessageType::Forces || !order.forcesAllowed(header.window, header.iteration)) {
     link.unexpected(header, "Forces for " + order.expectedForces());
   }
-  ForceMessage message = link.decodeBody(
-      [&] { return protocol::decodeForces(header, frame.data(), link.nodeCount()); }, waitingFor);
+  ForceMessage message =
+      link.decodeBody([&] { return protocol::decodeForces(header, frame.data(), link.nodeCount()); }, waitingFor);
   order.forcesExchanged(message.window, message.iteration);
   return message;
 }
@@ -500,7 +515,9 @@ void FemParticipant::sendKinematics(std::uint64_t window, const NodalKinematics&
   }
   if (!std::isfinite(kinematics.time)) link.fail("sendKinematics: time is not finite");
   const std::uint32_t iteration = order.kinematicsIteration();
-  link.send(link.encode([&](auto buffer) { return protocol::encodeKinematics(window, kinematics, std::move(buffer), iteration); }),
+  link.send(link.encode([&](auto buffer) {
+    return protocol::encodeKinematics(window, kinematics, std::move(buffer), iteration);
+  }),
             windowText("kinematics", window), true);
   order.kinematicsExchanged(window);
 }
@@ -518,7 +535,7 @@ const BridgeStatistics& FemParticipant::statistics() const { return impl_->link.
 struct DemParticipant::Impl {
   explicit Impl(ParticipantConfig config) : link(std::move(config), protocol::Role::Dem) {}
   Link link;
-  std::uint64_t forcesAfterFinalize = 0;  // forces not sent because the FEM side had finalized
+  std::uint64_t forcesAfterFinalize = 0; // forces not sent because the FEM side had finalized
   /// Windows with forces sent so far (the Finalize message's window).
   std::uint64_t forcesWindows() const {
     return (link.orderIfAny() ? link.orderIfAny()->forcesWindows() : 0) + forcesAfterFinalize;
@@ -532,9 +549,12 @@ DemParticipant::~DemParticipant() { impl_->link.finalizeQuietly(impl_->forcesWin
 InterfaceSetup DemParticipant::initialize() {
   Link& link = impl_->link;
   if (link.open()) link.fail("initialize() called twice");
-  link.openChannel(protocol::maxMessageBytes);  // the interface mesh is not known yet
+  link.openChannel(protocol::maxMessageBytes); // the interface mesh is not known yet
   // Queued by ZeroMQ until the FEM side binds; the wait below obeys the timeout.
-  link.send(link.encode([&](auto buffer) { return protocol::encodeHello(link.ownHello(), protocol::protocolVersion, std::move(buffer)); }), "the Hello", false);
+  link.send(link.encode([&](auto buffer) {
+    return protocol::encodeHello(link.ownHello(), protocol::protocolVersion, std::move(buffer));
+  }),
+            "the Hello", false);
   const std::string waitingFor = "the Hello of the FEM participant";
   auto [helloFrame, helloHeader] = link.receive(waitingFor, false);
   if (helloHeader.type != protocol::MessageType::Hello) link.unexpected(helloHeader, "Hello");
@@ -572,16 +592,18 @@ void DemParticipant::sendForces(const ForceMessage& message) {
   const std::string blocked = order.forcesBlockedBecause();
   if (!blocked.empty()) link.fail("sendForces: " + blocked);
   if (!order.forcesAllowed(message.window, message.iteration)) {
-    link.fail("sendForces: window " + std::to_string(message.window) + " iteration " + std::to_string(message.iteration) +
-              " but the " + link.agreedSchemeLabel() + " scheme continues with " + order.expectedForces());
+    link.fail("sendForces: window " + std::to_string(message.window) + " iteration " +
+              std::to_string(message.iteration) + " but the " + link.agreedSchemeLabel() + " scheme continues with " +
+              order.expectedForces());
   }
   if (message.forces.size() != 3 * link.nodeCount()) {
     link.fail("sendForces(window " + std::to_string(message.window) + "): forces has " +
-              std::to_string(message.forces.size()) + " values, the interface needs 3 per node = " +
-              std::to_string(3 * link.nodeCount()));
+              std::to_string(message.forces.size()) +
+              " values, the interface needs 3 per node = " + std::to_string(3 * link.nodeCount()));
   }
   if (!std::isfinite(message.time)) link.fail("sendForces: time is not finite");
-  link.send(link.encode([&](auto buffer) { return protocol::encodeForces(message, std::move(buffer)); }), windowText("forces", message.window), true);
+  link.send(link.encode([&](auto buffer) { return protocol::encodeForces(message, std::move(buffer)); }),
+            windowText("forces", message.window), true);
   order.forcesExchanged(message.window, message.iteration);
 }
 
@@ -609,8 +631,8 @@ NodalKinematics DemParticipant::receiveKinematics(std::uint64_t window) {
     link.unexpected(header, "Kinematics for window " + std::to_string(window) +
                                 (iteration > 0 ? " (iteration " + std::to_string(iteration) + ")" : std::string()));
   }
-  NodalKinematics kinematics = link.decodeBody(
-      [&] { return protocol::decodeKinematics(header, frame.data(), link.nodeCount()); }, waitingFor);
+  NodalKinematics kinematics =
+      link.decodeBody([&] { return protocol::decodeKinematics(header, frame.data(), link.nodeCount()); }, waitingFor);
   order.kinematicsExchanged(window);
   return kinematics;
 }

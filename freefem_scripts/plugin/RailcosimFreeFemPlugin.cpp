@@ -64,12 +64,12 @@ namespace {
 
 struct PluginState {
   std::unique_ptr<railcosim::FemParticipant> participant;
-  std::unique_ptr<railcosim::FemCouplingScheme> scheme;  // made by the first railcosimBeginStep
+  std::unique_ptr<railcosim::FemCouplingScheme> scheme; // made by the first railcosimBeginStep
   std::string name = "fem";
   std::size_t nodeCount = 0;
   bool initialized = false;
   bool finalized = false;
-  railcosim::BridgeStatistics finalStatistics;  // kept after the participant is released
+  railcosim::BridgeStatistics finalStatistics; // kept after the participant is released
   double lastForceTime = 0.0;
   long lastForceWindow = -1;
   long lastForceIteration = 0;
@@ -96,7 +96,7 @@ PluginState& state() {
     s.finalized = true;
   }
   ExecError(full);
-  throw std::logic_error(full);  // not reached: ExecError throws
+  throw std::logic_error(full); // not reached: ExecError throws
 }
 
 // Runs `body`, converting every C++ exception into a FreeFEM error that names the function.
@@ -105,7 +105,7 @@ auto guarded(const char* function, Body body) -> decltype(body()) {
   try {
     return body();
   } catch (const ::Error&) {
-    throw;  // already a FreeFEM error (raised by fail()), message complete
+    throw; // already a FreeFEM error (raised by fail()), message complete
   } catch (const railcosim::Error& error) {
     fail(function, error.what());
   } catch (const std::bad_alloc&) {
@@ -155,7 +155,8 @@ railcosim::NodalKinematics kinematicsFrom(const char* function, double time, con
   return kinematics;
 }
 
-long connectWithScheme(string* const& endpoint, string* const& name, const double& timeoutSeconds, const std::string& scheme) {
+long connectWithScheme(string* const& endpoint, string* const& name, const double& timeoutSeconds,
+                       const std::string& scheme) {
   return guarded("railcosimConnect", [&]() -> long {
     PluginState& s = state();
     if (s.participant || s.finalized)
@@ -180,7 +181,8 @@ long railcosimConnect(string* const& endpoint, string* const& name, const double
   return connectWithScheme(endpoint, name, timeoutSeconds, "");
 }
 
-long railcosimConnectScheme(string* const& endpoint, string* const& name, const double& timeoutSeconds, string* const& scheme) {
+long railcosimConnectScheme(string* const& endpoint, string* const& name, const double& timeoutSeconds,
+                            string* const& scheme) {
   return connectWithScheme(endpoint, name, timeoutSeconds, *scheme);
 }
 
@@ -236,8 +238,9 @@ long railcosimSendKinematics(const long& window, const double& time, KN<double>*
   return guarded("railcosimSendKinematics", [&]() -> long {
     railcosim::FemParticipant& participant = requireParticipant("railcosimSendKinematics", true);
     if (window < 0) fail("railcosimSendKinematics", "window index " + std::to_string(window) + " is negative");
-    participant.sendKinematics(static_cast<std::uint64_t>(window),
-                               kinematicsFrom("railcosimSendKinematics", time, *positions, *velocities, *accelerations));
+    participant.sendKinematics(
+        static_cast<std::uint64_t>(window),
+        kinematicsFrom("railcosimSendKinematics", time, *positions, *velocities, *accelerations));
     return 0L;
   });
 }
@@ -280,11 +283,15 @@ long railcosimEndStep(const double& time, KN<double>* const& positions, KN<doubl
 }
 
 long railcosimWriteCheckpoint() {
-  return guarded("railcosimWriteCheckpoint", [&]() -> long { return requireScheme("railcosimWriteCheckpoint").requiresWritingCheckpoint() ? 1L : 0L; });
+  return guarded("railcosimWriteCheckpoint", [&]() -> long {
+    return requireScheme("railcosimWriteCheckpoint").requiresWritingCheckpoint() ? 1L : 0L;
+  });
 }
 
 long railcosimReadCheckpoint() {
-  return guarded("railcosimReadCheckpoint", [&]() -> long { return requireScheme("railcosimReadCheckpoint").requiresReadingCheckpoint() ? 1L : 0L; });
+  return guarded("railcosimReadCheckpoint", [&]() -> long {
+    return requireScheme("railcosimReadCheckpoint").requiresReadingCheckpoint() ? 1L : 0L;
+  });
 }
 
 long railcosimStepAccepted() {
@@ -338,11 +345,12 @@ double railcosimBridgeSeconds() { return currentStatistics().bridgeSeconds(); }
 double railcosimWaitSeconds() { return currentStatistics().waitSeconds; }
 long railcosimExchanges() { return static_cast<long>(currentStatistics().exchanges); }
 
-}  // namespace
+} // namespace
 
 static void init() {
   Global.Add("railcosimConnect", "(", new OneOperator3_<long, string*, string*, double>(railcosimConnect));
-  Global.Add("railcosimConnect", "(", new OneOperator4_<long, string*, string*, double, string*>(railcosimConnectScheme));
+  Global.Add("railcosimConnect", "(",
+             new OneOperator4_<long, string*, string*, double, string*>(railcosimConnectScheme));
   Global.Add("railcosimInitialize", "(",
              new OneOperator5_<long, KN<double>*, KN<long>*, double, KN<double>*, KN<double>*>(railcosimInitialize));
   Global.Add("railcosimBeginStep", "(", new OneOperator1_<long, KN<double>*>(railcosimBeginStep));

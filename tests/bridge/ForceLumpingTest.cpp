@@ -39,8 +39,8 @@ RandomTriangle randomTriangle(std::mt19937_64& random) {
       t.b[i] = coordinate(random);
       t.c[i] = coordinate(random);
     }
-    const Vector n = cross({t.b[0] - t.a[0], t.b[1] - t.a[1], t.b[2] - t.a[2]},
-                           {t.c[0] - t.a[0], t.c[1] - t.a[1], t.c[2] - t.a[2]});
+    const Vector n =
+        cross({t.b[0] - t.a[0], t.b[1] - t.a[1], t.b[2] - t.a[2]}, {t.c[0] - t.a[0], t.c[1] - t.a[1], t.c[2] - t.a[2]});
     // Keep reasonably shaped triangles so the tolerances below stay meaningful.
     if (std::sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2]) > 0.1) return t;
   }
@@ -138,7 +138,7 @@ BOOST_AUTO_TEST_CASE(lumping_conserves_total_force_and_moment) {
   }
   std::vector<double> nodalForces(3 * nodes, 0.0);
   Vector totalForce{0, 0, 0}, totalMoment{0, 0, 0};
-  const Vector origin{0.37, -0.21, 0.9};  // moments about an arbitrary point
+  const Vector origin{0.37, -0.21, 0.9}; // moments about an arbitrary point
   for (int n = 0; n < 2000; ++n) {
     const std::size_t triangle = static_cast<std::size_t>(n) % (triangles.size() / 3);
     auto node = [&](int corner) {

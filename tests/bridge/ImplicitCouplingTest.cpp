@@ -103,8 +103,8 @@ BOOST_AUTO_TEST_CASE(predictor_and_surface_motion) {
   accepted.velocities = {0.0, 2.0, 0.0};
   accepted.accelerations = {4.0, 0.0, 0.0};
   window.startWindow(accepted);
-  BOOST_TEST(window.assumedEnd()[0] == 0.5);  // 4 * 0.25 / 2
-  BOOST_TEST(window.assumedEnd()[1] == 1.0);  // 2 * 0.5
+  BOOST_TEST(window.assumedEnd()[0] == 0.5); // 4 * 0.25 / 2
+  BOOST_TEST(window.assumedEnd()[1] == 1.0); // 2 * 0.5
   BOOST_TEST(window.assumedEnd()[2] == 1.0);
   BOOST_TEST(window.surfaceStart().velocities[0] == 1.0);
   BOOST_TEST(window.surfaceStart().velocities[1] == 2.0);

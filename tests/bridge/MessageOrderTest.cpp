@@ -12,9 +12,9 @@ BOOST_AUTO_TEST_CASE(just_in_time_alternates_forces_first) {
   auto order = makeMessageOrder(CouplingScheme::JustInTime);
   for (std::uint64_t w = 0; w < 5; ++w) {
     BOOST_TEST(order->forcesAllowed(w, 0));
-    BOOST_TEST(!order->forcesAllowed(w, 1));  // no scheme without iteration repeats a window
+    BOOST_TEST(!order->forcesAllowed(w, 1)); // no scheme without iteration repeats a window
     order->forcesExchanged(w, 0);
-    BOOST_TEST(!order->forcesAllowed(w + 1, 0));  // one window ahead at most
+    BOOST_TEST(!order->forcesAllowed(w + 1, 0)); // one window ahead at most
     BOOST_TEST(order->kinematicsAllowed(w));
     order->kinematicsExchanged(w);
   }
@@ -25,9 +25,9 @@ BOOST_AUTO_TEST_CASE(just_in_time_alternates_forces_first) {
 
 BOOST_AUTO_TEST_CASE(predictive_alternates_kinematics_first) {
   auto order = makeMessageOrder(CouplingScheme::Predictive);
-  BOOST_TEST(order->kinematicsAllowed(0));  // the FEM steps first
+  BOOST_TEST(order->kinematicsAllowed(0)); // the FEM steps first
   order->kinematicsExchanged(0);
-  BOOST_TEST(!order->kinematicsAllowed(1));  // not before the forces of window 0
+  BOOST_TEST(!order->kinematicsAllowed(1)); // not before the forces of window 0
   for (std::uint64_t w = 0; w < 5; ++w) {
     BOOST_TEST(!order->forcesAllowed(w + 1, 0));
     BOOST_TEST(order->forcesAllowed(w, 0));
@@ -35,22 +35,22 @@ BOOST_AUTO_TEST_CASE(predictive_alternates_kinematics_first) {
     BOOST_TEST(order->kinematicsAllowed(w + 1));
     order->kinematicsExchanged(w + 1);
   }
-  BOOST_TEST(order->kinematicsWindows() == 6u);  // one state more than force windows: the FEM's first step
+  BOOST_TEST(order->kinematicsWindows() == 6u); // one state more than force windows: the FEM's first step
 }
 
 BOOST_AUTO_TEST_CASE(implicit_repeats_a_window_or_opens_the_next) {
   auto order = makeMessageOrder(CouplingScheme::Implicit);
   BOOST_TEST(order->forcesBlockedBecause().empty());
-  BOOST_TEST(!order->forcesAllowed(0, 1));  // nothing to repeat yet
+  BOOST_TEST(!order->forcesAllowed(0, 1)); // nothing to repeat yet
   order->forcesExchanged(0, 0);
-  BOOST_TEST(!order->forcesBlockedBecause().empty());  // the kinematics of pass 0 come first
+  BOOST_TEST(!order->forcesBlockedBecause().empty()); // the kinematics of pass 0 come first
   BOOST_TEST(order->kinematicsIteration() == 0u);
   BOOST_TEST(order->kinematicsAllowed(0));
   order->kinematicsExchanged(0);
-  BOOST_TEST(order->forcesAllowed(0, 1));   // pass 1 of window 0
-  BOOST_TEST(order->forcesAllowed(1, 0));   // or window 1
-  BOOST_TEST(!order->forcesAllowed(0, 2));  // passes are not skipped
-  BOOST_TEST(!order->forcesAllowed(2, 0));  // nor windows
+  BOOST_TEST(order->forcesAllowed(0, 1));  // pass 1 of window 0
+  BOOST_TEST(order->forcesAllowed(1, 0));  // or window 1
+  BOOST_TEST(!order->forcesAllowed(0, 2)); // passes are not skipped
+  BOOST_TEST(!order->forcesAllowed(2, 0)); // nor windows
   BOOST_TEST(order->expectedForces() == "window 1 or for window 0 (iteration 1)");
   order->forcesExchanged(0, 1);
   BOOST_TEST(order->kinematicsIteration() == 1u);

@@ -53,7 +53,7 @@ Header decode(const std::vector<std::uint8_t>& bytes) { return decodeHeader(byte
 /// Overwrites a little-endian field of the header at `offset` (layout in docs/protocol.md).
 template <class T>
 void patch(std::vector<std::uint8_t>& bytes, std::size_t offset, T value) {
-  std::memcpy(bytes.data() + offset, &value, sizeof(T));  // the test host is little-endian like the wire
+  std::memcpy(bytes.data() + offset, &value, sizeof(T)); // the test host is little-endian like the wire
 }
 
 constexpr std::size_t offsetVersion = 4, offsetType = 6, offsetIteration = 16, offsetFlags = 20, offsetTime = 24,
@@ -65,7 +65,7 @@ BOOST_AUTO_TEST_CASE(header_is_56_bytes_with_magic_and_version_first) {
   const auto bytes = encodeFinalize(7);
   BOOST_TEST(bytes.size() == headerBytes);
   BOOST_TEST(std::memcmp(bytes.data(), "RCSM", 4) == 0);
-  BOOST_TEST(bytes[4] == protocolVersion);  // little-endian uint16
+  BOOST_TEST(bytes[4] == protocolVersion); // little-endian uint16
   BOOST_TEST(bytes[5] == 0);
   const Header header = decode(bytes);
   BOOST_TEST(header.window == 7u);
@@ -171,7 +171,7 @@ BOOST_AUTO_TEST_CASE(rejects_truncated_and_oversized_messages) {
 
 BOOST_AUTO_TEST_CASE(rejects_counts_inconsistent_with_the_mesh) {
   ForceMessage forces;
-  forces.forces.assign(12, 1.0);  // 4 nodes
+  forces.forces.assign(12, 1.0); // 4 nodes
   const auto bytes = encodeForces(forces);
   expectRejected([&] { decodeForces(decode(bytes), bytes.data(), 5); }, {"nodeCount", "4", "5 nodes"});
   const auto kinematicsBytes = encodeKinematics(0, kinematicsFor(3, true, false));
@@ -231,14 +231,14 @@ BOOST_AUTO_TEST_CASE(reused_buffer_gives_identical_bytes) {
   forces.window = 1;
   forces.forces.assign(300, 0.5);
   const auto fresh = encodeForces(forces);
-  std::vector<std::uint8_t> used = encodeKinematics(0, kinematicsFor(200, true, true));  // larger, other content
+  std::vector<std::uint8_t> used = encodeKinematics(0, kinematicsFor(200, true, true)); // larger, other content
   const auto reused = encodeForces(forces, std::move(used));
   BOOST_TEST(reused == fresh);
 }
 
 BOOST_AUTO_TEST_CASE(rejects_mesh_problems) {
   InterfaceMesh mesh = twoTriangles();
-  mesh.triangles[4] = 4;  // only nodes 0..3 exist
+  mesh.triangles[4] = 4; // only nodes 0..3 exist
   auto bytes = encodeMesh(mesh, 1e-4, kinematicsFor(4, false, false));
   expectRejected([&] { decodeMesh(decode(bytes), bytes.data()); }, {"'triangles'[4]", "triangle 1", "out of range"});
 
@@ -246,7 +246,7 @@ BOOST_AUTO_TEST_CASE(rejects_mesh_problems) {
   bytes = encodeMesh(mesh, 0.0, kinematicsFor(4, false, false));
   expectRejected([&] { decodeMesh(decode(bytes), bytes.data()); }, {"femTimeStep"});
 
-  mesh.triangles = {0, 1, 2, 0, 1, 1};  // second triangle has zero area
+  mesh.triangles = {0, 1, 2, 0, 1, 1}; // second triangle has zero area
   bytes = encodeMesh(mesh, 1e-4, kinematicsFor(4, false, false));
   expectRejected([&] { decodeMesh(decode(bytes), bytes.data()); }, {"degenerate", "triangle 1"});
 
@@ -300,7 +300,7 @@ BOOST_AUTO_TEST_CASE(rejects_bad_hello_fields) {
   hello.participantName = "dem";
   hello.role = Role::Dem;
   auto bytes = encodeHello(hello);
-  bytes[headerBytes] = 9;  // role byte
+  bytes[headerBytes] = 9; // role byte
   expectRejected([&] { decodeHello(decode(bytes), bytes.data()); }, {"'role'", "9"});
 
   hello.unitSystem = "mm-t-s";
@@ -319,7 +319,7 @@ BOOST_AUTO_TEST_CASE(rejects_bad_hello_fields) {
 
   hello.participantName = "dem";
   bytes = encodeHello(hello);
-  bytes[headerBytes + 1] = 200;  // name length beyond the payload
+  bytes[headerBytes + 1] = 200; // name length beyond the payload
   expectRejected([&] { decodeHello(decode(bytes), bytes.data()); }, {"truncated", "participantName"});
 }
 

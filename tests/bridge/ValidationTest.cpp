@@ -82,7 +82,7 @@ BOOST_AUTO_TEST_CASE(mesh_errors_name_the_problem) {
   mesh.coordinates[7] = std::numeric_limits<double>::quiet_NaN();
   expectError([&] { mesh.validate(); }, {"coordinates[7]", "node 2", "y"});
   mesh = square();
-  mesh.coordinates[6] = 2.0;  // node 2 at (2,1,0)? keep collinear instead:
+  mesh.coordinates[6] = 2.0; // node 2 at (2,1,0)? keep collinear instead:
   mesh.coordinates = {0, 0, 0, 1, 0, 0, 2, 0, 0, 0, 1, 0};
   mesh.triangles = {0, 1, 3, 0, 1, 2};
   expectError([&] { mesh.validate(); }, {"triangle 1", "degenerate"});
@@ -114,15 +114,27 @@ BOOST_AUTO_TEST_CASE(kinematics_errors_name_the_problem) {
 
 BOOST_AUTO_TEST_CASE(configuration_errors_are_reported_before_any_socket_opens) {
   expectError([] { FemParticipant participant(ParticipantConfig{"", "ipc:///tmp/x.sock", 10, 1}); }, {"name"});
-  expectError([] { FemParticipant participant(ParticipantConfig{"fem", "/tmp/x.sock", 10, 1}); },
-              {"fem", "endpoint", "/tmp/x.sock"});
+  expectError(
+      [] {
+        FemParticipant participant(ParticipantConfig{"fem", "/tmp/x.sock", 10, 1});
+      },
+      {"fem", "endpoint", "/tmp/x.sock"});
   expectError([] { DemParticipant participant(ParticipantConfig{"dem", "tcp://", 10, 1}); }, {"endpoint"});
-  expectError([] { DemParticipant participant(ParticipantConfig{"dem", "tcp://127.0.0.1:5000", 0, 1}); },
-              {"timeoutSeconds"});
-  expectError([] { DemParticipant participant(ParticipantConfig{"dem", "tcp://127.0.0.1:5000", 10, -1}); },
-              {"heartbeatSeconds"});
-  expectError([] { DemParticipant participant(ParticipantConfig{"dem", "tcp://127.0.0.1:5000", 10, 1, "monolithic"}); },
-              {"couplingScheme", "monolithic"});
+  expectError(
+      [] {
+        DemParticipant participant(ParticipantConfig{"dem", "tcp://127.0.0.1:5000", 0, 1});
+      },
+      {"timeoutSeconds"});
+  expectError(
+      [] {
+        DemParticipant participant(ParticipantConfig{"dem", "tcp://127.0.0.1:5000", 10, -1});
+      },
+      {"heartbeatSeconds"});
+  expectError(
+      [] {
+        DemParticipant participant(ParticipantConfig{"dem", "tcp://127.0.0.1:5000", 10, 1, "monolithic"});
+      },
+      {"couplingScheme", "monolithic"});
 }
 
 BOOST_AUTO_TEST_CASE(calls_out_of_order_are_errors) {

@@ -22,7 +22,8 @@ BOOST_AUTO_TEST_CASE(taylor_extrapolation_is_exact_for_uniform_acceleration) {
   for (double tau : {0.0, 0.0625, 0.25, 1.0}) {
     extrapolateSurface(start, tau, positions, velocities);
     for (std::size_t i = 0; i < 6; ++i) {
-      const double exactPosition = start.positions[i] + start.velocities[i] * tau + 0.5 * start.accelerations[i] * tau * tau;
+      const double exactPosition =
+          start.positions[i] + start.velocities[i] * tau + 0.5 * start.accelerations[i] * tau * tau;
       const double exactVelocity = start.velocities[i] + start.accelerations[i] * tau;
       BOOST_TEST(positions[i] == exactPosition);
       BOOST_TEST(velocities[i] == exactVelocity);
@@ -44,7 +45,8 @@ BOOST_AUTO_TEST_CASE(taylor_extrapolation_matches_closed_form_for_random_motion)
   const double tau = 3.7e-5;
   extrapolateSurface(start, tau, positions, velocities);
   for (std::size_t i = 0; i < start.positions.size(); ++i) {
-    const double exactPosition = start.positions[i] + start.velocities[i] * tau + start.accelerations[i] * tau * tau / 2;
+    const double exactPosition =
+        start.positions[i] + start.velocities[i] * tau + start.accelerations[i] * tau * tau / 2;
     BOOST_TEST(std::abs(positions[i] - exactPosition) <= 4e-16 * std::abs(start.positions[i]) + 1e-20);
     BOOST_TEST(std::abs(velocities[i] - (start.velocities[i] + start.accelerations[i] * tau)) <= 4e-15);
   }
@@ -57,7 +59,7 @@ BOOST_AUTO_TEST_CASE(missing_velocity_and_acceleration_count_as_zero) {
   extrapolateSurface(start, 0.5, positions, velocities);
   BOOST_TEST(positions == start.positions);
   BOOST_TEST(velocities == std::vector<double>(3, 0.0));
-  start.velocities = {1.0, 1.0};  // wrong size
+  start.velocities = {1.0, 1.0}; // wrong size
   BOOST_CHECK_THROW(extrapolateSurface(start, 0.5, positions, velocities), Error);
 }
 
@@ -80,7 +82,7 @@ BOOST_AUTO_TEST_CASE(predictive_start_reaches_the_window_end_position) {
   for (std::size_t i = 0; i < positions.size(); ++i) {
     // P0 + ((P1 - P0) / dt) dt: two roundings on the increment, far below 1e-15 m for |P| <= 1 m.
     BOOST_TEST(std::abs(positions[i] - atEnd.positions[i]) <= 1e-15);
-    BOOST_TEST(velocities[i] == start.velocities[i]);  // A = 0: constant velocity
+    BOOST_TEST(velocities[i] == start.velocities[i]); // A = 0: constant velocity
   }
   // Dyadic case: reproduced exactly.
   NodalKinematics p0, p1;

@@ -56,13 +56,19 @@ void expect(bool condition, const std::string& what) {
   }
 }
 
-}  // namespace
+} // namespace
 
 int main(int argc, char** argv) {
   try {
     const dummy::Options options(argc, argv,
-                                 {{"endpoint", ""}, {"pressure", "0"}, {"windows", "10"}, {"scheme", "justInTime"},
-                                  {"area", "-1"}, {"normal", "0,0,1"}, {"timeout", "60"}, {"trapezoid", "0"}},
+                                 {{"endpoint", ""},
+                                  {"pressure", "0"},
+                                  {"windows", "10"},
+                                  {"scheme", "justInTime"},
+                                  {"area", "-1"},
+                                  {"normal", "0,0,1"},
+                                  {"timeout", "60"},
+                                  {"trapezoid", "0"}},
                                  usage);
     if (options.text("endpoint").empty()) throw std::runtime_error("--endpoint is required");
     const double pressure = options.number("pressure");
@@ -100,7 +106,7 @@ int main(int argc, char** argv) {
       const double twiceArea = std::sqrt(normal[0] * normal[0] + normal[1] * normal[1] + normal[2] * normal[2]);
       const double alignment =
           (normal[0] * expectedNormal[0] + normal[1] * expectedNormal[1] + normal[2] * expectedNormal[2]) / twiceArea;
-      if (alignment < 1.0 - 1e-9) ++misoriented;  // a flat box face: every normal is the face normal
+      if (alignment < 1.0 - 1e-9) ++misoriented; // a flat box face: every normal is the face normal
       const double area = 0.5 * twiceArea;
       totalArea += area;
       // Pressure pushes against the outward normal: force = -p * area * n_unit, at the centroid.
@@ -111,7 +117,8 @@ int main(int argc, char** argv) {
                                            -pressure * area * normal[2] / twiceArea};
       lumpPointForce(mesh.coordinates, mesh.triangles, t, centroid, force, forces);
     }
-    expect(misoriented == 0, std::to_string(misoriented) + " triangles do not face --normal (counter-clockwise from outside)");
+    expect(misoriented == 0,
+           std::to_string(misoriented) + " triangles do not face --normal (counter-clockwise from outside)");
     if (expectedArea > 0.0)
       expect(std::abs(totalArea - expectedArea) <= 1e-12 * expectedArea,
              "interface area " + std::to_string(totalArea) + " m^2 equals --area " + std::to_string(expectedArea));
@@ -165,9 +172,10 @@ int main(int argc, char** argv) {
       expect(worstVelocityMismatch <= 1e-6 * velocityScale + 1e-14 / dt,
              "sent velocities match the trapezoid rule (p1-p0)/dt = (v0+v1)/2 (mismatch " +
                  std::to_string(worstVelocityMismatch) + " m/s)");
-    std::printf("railcosim_test_pressure_dem: %zu nodes, %zu triangles, area %.9g m^2, total force %.9g N, %ld windows, "
-                "max |(p1-p0)/dt - (v0+v1)/2| = %.3e m/s\n",
-                nodes, mesh.triangleCount(), totalArea, -pressure * totalArea, windows, worstVelocityMismatch);
+    std::printf(
+        "railcosim_test_pressure_dem: %zu nodes, %zu triangles, area %.9g m^2, total force %.9g N, %ld windows, "
+        "max |(p1-p0)/dt - (v0+v1)/2| = %.3e m/s\n",
+        nodes, mesh.triangleCount(), totalArea, -pressure * totalArea, windows, worstVelocityMismatch);
     std::printf("railcosim_test_pressure_dem: %s\n", failures == 0 ? "OK" : "FAILED");
     return failures == 0 ? 0 : 1;
   } catch (const std::exception& error) {

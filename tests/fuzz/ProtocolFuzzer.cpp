@@ -77,8 +77,8 @@ void fuzzHello(const Header& header, const std::uint8_t* data) {
         finding(header, "Hello scheme '" + hello.couplingScheme + "' accepted in a non-canonical spelling");
       }
     } catch (const Error& error) {
-      finding(header, std::string("Hello scheme accepted by decodeHello, refused by parseCouplingScheme: ") +
-                          error.what());
+      finding(header,
+              std::string("Hello scheme accepted by decodeHello, refused by parseCouplingScheme: ") + error.what());
     }
   }
   if (hello.participantName.empty()) finding(header, "Hello with an empty participantName accepted");
@@ -132,7 +132,7 @@ void fuzzKinematics(const Header& header, const std::uint8_t* data, std::size_t 
   }
   const auto encoded = encodeKinematics(header.window, kinematics, {}, header.iteration);
   if (agreed == 0) {
-    requireCanonical(header, data, encoded, {flagsField});  // without nodes no array tells what the flags announced
+    requireCanonical(header, data, encoded, {flagsField}); // without nodes no array tells what the flags announced
   } else {
     requireCanonical(header, data, encoded, {});
   }
@@ -156,20 +156,29 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
   if (header.payloadBytes != size - headerBytes) finding(header, "decodeHeader accepted a payload size mismatch");
   try {
     switch (header.type) {
-    case MessageType::Hello: fuzzHello(header, data); break;
-    case MessageType::InterfaceMesh: fuzzMesh(header, data); break;
-    case MessageType::Forces: fuzzForces(header, data, size); break;
-    case MessageType::Kinematics: fuzzKinematics(header, data, size); break;
-    case MessageType::Finalize:
-      decodeFinalize(header);
-      requireCanonical(header, data, encodeFinalize(header.window), {timeField});
-      break;
-    case MessageType::Abort: {
-      const std::string reason = decodeAbort(header, data);
-      requireCanonical(header, data, encodeAbort(header.window, reason), {timeField});
-      break;
-    }
-    default: finding(header, "decodeHeader accepted an unknown message type");
+      case MessageType::Hello:
+        fuzzHello(header, data);
+        break;
+      case MessageType::InterfaceMesh:
+        fuzzMesh(header, data);
+        break;
+      case MessageType::Forces:
+        fuzzForces(header, data, size);
+        break;
+      case MessageType::Kinematics:
+        fuzzKinematics(header, data, size);
+        break;
+      case MessageType::Finalize:
+        decodeFinalize(header);
+        requireCanonical(header, data, encodeFinalize(header.window), {timeField});
+        break;
+      case MessageType::Abort: {
+        const std::string reason = decodeAbort(header, data);
+        requireCanonical(header, data, encodeAbort(header.window, reason), {timeField});
+        break;
+      }
+      default:
+        finding(header, "decodeHeader accepted an unknown message type");
     }
   } catch (const ProtocolError&) {
     // The documented outcome for a malformed body.

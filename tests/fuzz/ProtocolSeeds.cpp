@@ -36,7 +36,7 @@ NodalKinematics sagging(const InterfaceMesh& mesh, double time, bool velocities,
   NodalKinematics kinematics;
   kinematics.time = time;
   kinematics.positions = mesh.coordinates;
-  const double omega = 2.0 * M_PI * 180.0;  // a sleeper-on-ballast mode, rad/s
+  const double omega = 2.0 * M_PI * 180.0; // a sleeper-on-ballast mode, rad/s
   for (std::size_t node = 0; node < mesh.nodeCount(); ++node) {
     const double x = mesh.coordinates[3 * node], y = mesh.coordinates[3 * node + 1];
     const double amplitude = -4.0e-6 * std::sin(M_PI * x / 0.7) * std::sin(M_PI * y / 0.7);
@@ -72,7 +72,7 @@ std::vector<std::uint8_t> abortOverLimit() {
   std::vector<std::uint8_t> bytes = encodeAbort(3, std::string(maxTextBytes, 'x'));
   bytes.push_back('x');
   const std::uint64_t payload = maxTextBytes + 1;
-  for (int i = 0; i < 8; ++i) bytes[48 + i] = static_cast<std::uint8_t>(payload >> (8 * i));  // little-endian
+  for (int i = 0; i < 8; ++i) bytes[48 + i] = static_cast<std::uint8_t>(payload >> (8 * i)); // little-endian
   return bytes;
 }
 
@@ -93,11 +93,11 @@ int main(int argc, char** argv) {
   }
   const std::string folder = argv[1];
   try {
-    const double dt = 5.0e-4;  // the beam case's FEM step, s
+    const double dt = 5.0e-4; // the beam case's FEM step, s
     const InterfaceMesh grid8 = grid(8, 8), grid3 = grid(3, 3);
     InterfaceMesh triangle;
     triangle.coordinates = {0.0, 0.0, 0.0, 0.6, 0.0, 0.0, 0.0, 0.25, 0.0};
-    triangle.triangles = {0, 1, 2};  // odd triangle count: the arrays after it are not 8-byte aligned
+    triangle.triangles = {0, 1, 2}; // odd triangle count: the arrays after it are not 8-byte aligned
     const std::vector<std::pair<std::string, std::vector<std::uint8_t>>> seeds = {
         {"hello-fem-justInTime", encodeHello(hello(Role::Fem, "beam-fem", "justInTime"))},
         {"hello-dem-predictive", encodeHello(hello(Role::Dem, "ballast-dem", "predictive"))},
@@ -116,9 +116,10 @@ int main(int argc, char** argv) {
         {"kinematics-9-velocities-window3-iteration2", encodeKinematics(3, sagging(grid3, 4 * dt, true, false), {}, 2)},
         {"finalize-window1000", encodeFinalize(1000)},
         {"abort-protocol-error",
-         encodeAbort(42, "dem: rejected a message from peer 'fem' while waiting for kinematics of window 42: "
-                         "Kinematics for window 42: field 'positions'[7] (node 2, y) is nan; the sender produced "
-                         "a non-finite value (diverged solution?)")},
+         encodeAbort(42,
+                     "dem: rejected a message from peer 'fem' while waiting for kinematics of window 42: "
+                     "Kinematics for window 42: field 'positions'[7] (node 2, y) is nan; the sender produced "
+                     "a non-finite value (diverged solution?)")},
         {"abort-over-limit", abortOverLimit()},
         // Refusals a sender can encode but a receiver must reject; rarely reached by mutation from valid seeds.
         {"hello-empty-name", encodeHello(hello(Role::Dem, "", ""))},

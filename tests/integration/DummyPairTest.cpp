@@ -102,11 +102,14 @@ BOOST_AUTO_TEST_CASE(tcp_predictive_fem_first) { runPair(Transport::Tcp, "predic
 /// Implicit scheme with the particles acting as a stiff spring bed on the surface: the DEM dummy
 /// compares every accepted window with the monolithic solution of the same coupled system (it exits 1
 /// beyond 100 x the convergence tolerance). Returns the DEM dummy's summary line.
-std::string runImplicit(const std::string& contactStiffness, const std::vector<std::string>& iterationOptions, int expectedExit) {
+std::string runImplicit(const std::string& contactStiffness, const std::vector<std::string>& iterationOptions,
+                        int expectedExit) {
   const std::string endpoint = "ipc:///tmp/" + uniqueName() + ".sock";
-  Process fem(RAILCOSIM_DUMMY_FEM, {"--endpoint", endpoint, "--timeout", "20", "--scheme", "implicit", "--nodes", "16"});
-  std::vector<std::string> demArguments{"--endpoint", endpoint, "--timeout", "20", "--scheme", "implicit", "--windows", "500",
-                                        "--contact-stiffness", contactStiffness};
+  Process fem(RAILCOSIM_DUMMY_FEM,
+              {"--endpoint", endpoint, "--timeout", "20", "--scheme", "implicit", "--nodes", "16"});
+  std::vector<std::string> demArguments{
+      "--endpoint",          endpoint,        "--timeout", "20", "--scheme", "implicit", "--windows", "500",
+      "--contact-stiffness", contactStiffness};
   demArguments.insert(demArguments.end(), iterationOptions.begin(), iterationOptions.end());
   Process dem(RAILCOSIM_DUMMY_DEM, demArguments);
   BOOST_TEST(dem.wait(60) == expectedExit);
@@ -153,7 +156,7 @@ void killMidRun(Transport transport, bool killDem) {
   const double seconds = std::chrono::duration<double>(Clock::now() - killed).count();
   BOOST_TEST_MESSAGE("survivor reported the loss after " << seconds << " s: " << survivor.errors());
   BOOST_TEST(code == 2);
-  BOOST_TEST(seconds < 10.0);  // required bound; a killed process closes its sockets, so ~immediate
+  BOOST_TEST(seconds < 10.0); // required bound; a killed process closes its sockets, so ~immediate
   const std::string message = survivor.errors();
   BOOST_TEST(contains(message, killDem ? "peer 'dem' disconnected" : "peer 'fem' disconnected"));
   BOOST_TEST(contains(message, endpoint));
@@ -198,7 +201,7 @@ BOOST_AUTO_TEST_CASE(missing_fem_times_out_with_advice) {
   Process dem(RAILCOSIM_DUMMY_DEM, {"--endpoint", endpoint, "--timeout", "1.5"});
   BOOST_TEST(dem.wait(20) == 2);
   const double seconds = std::chrono::duration<double>(Clock::now() - start).count();
-  BOOST_TEST(seconds < 6.0);  // 1.5 s timeout + process start; bounded well below the 60 s default
+  BOOST_TEST(seconds < 6.0); // 1.5 s timeout + process start; bounded well below the 60 s default
   BOOST_TEST(contains(dem.errors(), "within 1.5 s"));
   BOOST_TEST(contains(dem.errors(), "no FEM participant ever connected"));
   BOOST_TEST(contains(dem.errors(), "raise timeoutSeconds"));
@@ -208,8 +211,8 @@ BOOST_AUTO_TEST_CASE(mismatched_schemes_are_refused_at_the_handshake) {
   const std::string endpoint = "ipc:///tmp/" + uniqueName() + ".sock";
   Process fem(RAILCOSIM_DUMMY_FEM, {"--endpoint", endpoint, "--timeout", "20", "--scheme", "predictive"});
   Process dem(RAILCOSIM_DUMMY_DEM, {"--endpoint", endpoint, "--timeout", "20", "--windows", "50"});
-  BOOST_TEST(fem.wait(30) == 3);  // protocol error
-  BOOST_TEST(dem.wait(30) != 0);  // told by the FEM's Abort (exit 2), or saw the same mismatch itself
+  BOOST_TEST(fem.wait(30) == 3); // protocol error
+  BOOST_TEST(dem.wait(30) != 0); // told by the FEM's Abort (exit 2), or saw the same mismatch itself
   BOOST_TEST(contains(fem.errors(), "same couplingScheme"));
   BOOST_TEST(contains(dem.errors(), "same couplingScheme"));
 }

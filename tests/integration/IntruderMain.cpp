@@ -15,7 +15,8 @@ int main(int argc, char** argv) {
       const auto start = std::chrono::steady_clock::now();
       const std::size_t taken = attack.run(argv[1]);
       const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-      std::cout << "intrusion '" << attack.name << "': target took " << taken << " bytes, " << seconds << " s" << std::endl;
+      std::cout << "intrusion '" << attack.name << "': target took " << taken << " bytes, " << seconds << " s"
+                << std::endl;
     }
   } catch (const std::exception& error) {
     std::cerr << "railcosim_intruder: " << error.what() << "\n";

@@ -23,7 +23,7 @@ namespace intrusion = railcosim::test::intrusion;
 
 struct Environment {
   Environment() {
-    setenv("RAILCOSIM_LOG", "info", 1);  // the FEM dummy announces its bound endpoint
+    setenv("RAILCOSIM_LOG", "info", 1); // the FEM dummy announces its bound endpoint
     setenv("RAILCOSIM_BRIDGE_TOKEN", "3f1c9a7e55d04b2a8e6f0c1d2b3a4958", 1);
   }
 };
@@ -48,7 +48,8 @@ void survivesIntrusions(bool overIpc) {
   Process fem(RAILCOSIM_DUMMY_FEM, {"--endpoint", requested, "--timeout", "30"});
   const std::string endpoint = announcedEndpoint(fem);
   BOOST_REQUIRE(!endpoint.empty());
-  Process dem(RAILCOSIM_DUMMY_DEM, {"--endpoint", endpoint, "--timeout", "30", "--windows", "2000", "--compute-ms", "5"});
+  Process dem(RAILCOSIM_DUMMY_DEM,
+              {"--endpoint", endpoint, "--timeout", "30", "--windows", "2000", "--compute-ms", "5"});
   fem.awaitError("coupled with DEM participant", 10.0);
   const long residentBefore = residentHighWaterKiB(fem.pid());
 
@@ -67,7 +68,7 @@ void survivesIntrusions(bool overIpc) {
   const int demExit = dem.wait(90);
   const int femExit = fem.wait(10);
   BOOST_TEST_MESSAGE("intrusions took " << attackSeconds << " s; FEM took " << junkTaken << " junk bytes; FEM peak RSS "
-                     << residentBefore << " -> " << residentAfter << " KiB");
+                                        << residentBefore << " -> " << residentAfter << " KiB");
   BOOST_TEST(demExit == 0, "DEM exit " << demExit << ": " << dem.errors());
   BOOST_TEST(femExit == 0, "FEM exit " << femExit << ": " << fem.errors());
   BOOST_TEST(contains(dem.output(), "railcosim_dummy_dem: OK 2000 windows"));
@@ -103,7 +104,7 @@ BOOST_AUTO_TEST_CASE(wrong_token_is_refused_with_a_clear_message) {
   BOOST_TEST(seconds < 5.0);
   BOOST_TEST(contains(dem.errors(), "run tokens differ"));
   BOOST_TEST(contains(fem.errors(), "wrong run token"));
-  BOOST_TEST(fem.wait(20) == 2);  // no participant joined within its 8 s
+  BOOST_TEST(fem.wait(20) == 2); // no participant joined within its 8 s
 }
 
 BOOST_AUTO_TEST_CASE(tcp_on_a_network_interface_needs_a_token) {
@@ -143,8 +144,8 @@ BOOST_AUTO_TEST_CASE(ipc_participant_of_another_user_is_refused) {
   Process fem(RAILCOSIM_DUMMY_FEM, {"--endpoint", endpoint, "--timeout", "8"});
   announcedEndpoint(fem);
   ::umask(previous);
-  Process intruder("/usr/bin/setpriv", {"--reuid=nobody", "--regid=nogroup", "--clear-groups", dem, "--endpoint", endpoint,
-                                        "--timeout", "10", "--windows", "3"});
+  Process intruder("/usr/bin/setpriv", {"--reuid=nobody", "--regid=nogroup", "--clear-groups", dem, "--endpoint",
+                                        endpoint, "--timeout", "10", "--windows", "3"});
   BOOST_TEST(intruder.wait(20) == 2);
   BOOST_TEST(contains(intruder.errors(), "refused this participant"));
   BOOST_TEST(contains(fem.errors(), "process of another user"));

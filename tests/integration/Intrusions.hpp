@@ -75,7 +75,7 @@ inline std::vector<unsigned char> terabyteAnnouncement() {
   bytes[9] = 0x7F;
   bytes[10] = 3;
   std::memcpy(&bytes[12], "NULL", 4);
-  bytes.push_back(0x02);  // long message frame
+  bytes.push_back(0x02); // long message frame
   const std::uint64_t size = 1'000'000'000'000ULL;
   for (int shift = 56; shift >= 0; shift -= 8) bytes.push_back(static_cast<unsigned char>(size >> shift));
   return bytes;
@@ -104,7 +104,7 @@ inline std::size_t zeromqPeerSendsAndCloses(const std::string& endpoint, const s
   if (zmq_connect(socket, endpoint.c_str()) != 0) throw std::runtime_error("zmq_connect " + endpoint + " failed");
   const std::vector<unsigned char> message = randomBytes(100, 7);
   zmq_send(socket, message.data(), message.size(), ZMQ_DONTWAIT);
-  std::this_thread::sleep_for(std::chrono::milliseconds(300));  // the handshake and its refusal
+  std::this_thread::sleep_for(std::chrono::milliseconds(300)); // the handshake and its refusal
   zmq_close(socket);
   zmq_ctx_term(context);
   return message.size();
@@ -112,7 +112,7 @@ inline std::size_t zeromqPeerSendsAndCloses(const std::string& endpoint, const s
 
 struct Attack {
   std::string name;
-  std::function<std::size_t(const std::string&)> run;  // returns the bytes the target took
+  std::function<std::size_t(const std::string&)> run; // returns the bytes the target took
 };
 
 /// Every intrusion, in the order the tests make them.
@@ -123,7 +123,8 @@ inline std::vector<Attack> all() {
       {"1 TB frame announcement", [](const std::string& e) { return sendRaw(e, terabyteAnnouncement()); }},
       {"junk", [](const std::string& e) { return sendRaw(e, randomBytes(200'000'000, 2)); }},
       {"ZeroMQ peer without a token", [](const std::string& e) { return zeromqPeerSendsAndCloses(e, ""); }},
-      {"ZeroMQ peer with a wrong token", [](const std::string& e) { return zeromqPeerSendsAndCloses(e, "not-the-run-token"); }},
+      {"ZeroMQ peer with a wrong token",
+       [](const std::string& e) { return zeromqPeerSendsAndCloses(e, "not-the-run-token"); }},
   };
 }
 

@@ -103,7 +103,8 @@ struct FemAfterHandshake {
   FemParticipant participant{ParticipantConfig{"fem", endpoint, 10.0, 1.0}};
   FakePeer dem{endpoint, com::Side::Connect};
   FemAfterHandshake() {
-    auto init = std::async(std::launch::async, [&] { participant.initialize(square(), 1e-4, restingAt(square(), 0.0)); });
+    auto init =
+        std::async(std::launch::async, [&] { participant.initialize(square(), 1e-4, restingAt(square(), 0.0)); });
     handshakeAsFakeDem(dem);
     init.get();
   }
@@ -144,7 +145,8 @@ BOOST_AUTO_TEST_CASE(just_in_time_run_transfers_data_unchanged) {
     dem.sendForces(forces);
     const NodalKinematics answer = dem.receiveKinematics(forces.window);
     BOOST_TEST(answer.time == forces.time);
-    for (std::size_t i = 0; i < 12; ++i) BOOST_TEST(answer.positions[i] == mesh.coordinates[i] + 2.0 * forces.forces[i]);
+    for (std::size_t i = 0; i < 12; ++i)
+      BOOST_TEST(answer.positions[i] == mesh.coordinates[i] + 2.0 * forces.forces[i]);
   }
   const BridgeStatistics& statistics = dem.statistics();
   BOOST_TEST(statistics.exchanges == 2u * windows);
@@ -202,7 +204,7 @@ BOOST_AUTO_TEST_CASE(dem_learns_that_the_fem_finalized_early) {
   dem.receiveKinematics(0);
   fem.get();
   forces.window = 1;
-  dem.sendForces(forces);  // the FEM side may already be gone: not an error by itself
+  dem.sendForces(forces); // the FEM side may already be gone: not an error by itself
   auto next = std::async(std::launch::async, [&] { dem.receiveKinematics(1); });
   const std::string message = expectThrows<PeerLostError>(next);
   BOOST_TEST(contains(message, "finalized"));
@@ -294,7 +296,7 @@ BOOST_AUTO_TEST_CASE(forces_for_another_mesh_size_are_rejected) {
   FemParticipant& participant = run.participant;
   FakePeer& dem = run.dem;
   ForceMessage forces;
-  forces.forces.assign(9, 0.0);  // 3 nodes instead of 4
+  forces.forces.assign(9, 0.0); // 3 nodes instead of 4
   dem.send(protocol::encodeForces(forces));
   auto receive = std::async(std::launch::async, [&] { participant.receiveForces(); });
   const std::string message = expectThrows<ProtocolError>(receive);
@@ -317,8 +319,7 @@ BOOST_AUTO_TEST_CASE(silent_peer_times_out_with_advice) {
   const std::string endpoint = uniqueEndpoint();
   FemParticipant participant(ParticipantConfig{"fem", endpoint, 0.5, 1.0});
   const auto start = std::chrono::steady_clock::now();
-  auto init = std::async(std::launch::async,
-                         [&] { participant.initialize(square(), 1e-4, restingAt(square(), 0.0)); });
+  auto init = std::async(std::launch::async, [&] { participant.initialize(square(), 1e-4, restingAt(square(), 0.0)); });
   const std::string message = expectThrows<PeerLostError>(init);
   const double waited = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   BOOST_TEST(contains(message, "0.5 s"));
@@ -337,7 +338,7 @@ BOOST_AUTO_TEST_CASE(non_finite_values_are_refused_before_sending) {
     FemParticipant participant(ParticipantConfig{"fem", endpoint, 10.0, 1.0});
     participant.initialize(mesh, 1e-4, restingAt(mesh, 0.0));
     const auto forces = participant.receiveForces();
-    BOOST_TEST(forces->forces == std::vector<double>(12, 2.0));  // the good message after the refused one
+    BOOST_TEST(forces->forces == std::vector<double>(12, 2.0)); // the good message after the refused one
     NodalKinematics bad = restingAt(mesh, 1e-4);
     bad.velocities[5] = std::numeric_limits<double>::infinity();
     try {

@@ -66,7 +66,9 @@ std::string readCommand(int fd) {
 std::string shortCommand(const std::string& body) { return std::string{'\x04', static_cast<char>(body.size())} + body; }
 
 /// READY with Socket-Type PAIR (ZMTP 3, RFC 23): name, then property name and 4-byte big-endian value size.
-std::string ready() { return shortCommand(std::string("\x05READY\x0bSocket-Type\x00\x00\x00\x04PAIR", 6 + 12 + 4 + 4)); }
+std::string ready() {
+  return shortCommand(std::string("\x05READY\x0bSocket-Type\x00\x00\x00\x04PAIR", 6 + 12 + 4 + 4));
+}
 
 /// Server half of a ZMTP 3.0 handshake with the channel (mechanism NULL or PLAIN, whichever it asks for).
 /// libzmq sends its greeting in steps: the 10-byte signature, the major version once it has ours, the
@@ -77,13 +79,13 @@ void handshake(int fd) {
   std::string greeting(64, '\0');
   greeting[0] = '\xff';
   greeting[9] = '\x7f';
-  greeting[10] = 3;  // major version
+  greeting[10] = 3; // major version
   writeAll(fd, greeting.substr(0, 11));
   unsigned char rest[54];
-  readExactly(fd, rest, 54);  // major, minor, mechanism[20], as-server, filler[31]
+  readExactly(fd, rest, 54); // major, minor, mechanism[20], as-server, filler[31]
   const std::string mechanism(reinterpret_cast<char*>(rest + 2), strnlen(reinterpret_cast<char*>(rest + 2), 20));
   std::memcpy(&greeting[12], mechanism.data(), mechanism.size());
-  greeting[32] = 1;  // as-server
+  greeting[32] = 1; // as-server
   writeAll(fd, greeting.substr(11));
   if (mechanism == "PLAIN") {
     BOOST_REQUIRE(readCommand(fd) == "HELLO");
@@ -112,7 +114,7 @@ BOOST_AUTO_TEST_CASE(closing_while_the_peer_sends_and_hangs_up_does_not_abort) {
   BOOST_REQUIRE(::pipe(closing) == 0);
   const pid_t child = ::fork();
   if (child == 0) {
-    std::signal(SIGABRT, SIG_DFL);  // report libzmq's abort as such, not through Boost.Test's handler
+    std::signal(SIGABRT, SIG_DFL); // report libzmq's abort as such, not through Boost.Test's handler
     // The participant's side: connect, send a message far larger than the socket buffers (the peer
     // never reads it, so it stays unsent) and one more behind it (so close() lingers), then close.
     ChannelOptions options;
@@ -126,7 +128,7 @@ BOOST_AUTO_TEST_CASE(closing_while_the_peer_sends_and_hangs_up_does_not_abort) {
     railcosim::com::Timing timing;
     for (int i = 0; i < 200 && !channel.peerSeen(); ++i) std::this_thread::sleep_for(std::chrono::milliseconds(10));
     channel.send(std::vector<std::uint8_t>(64 << 20, 1), 5.0, timing);
-    channel.send(std::vector<std::uint8_t>(100, 2), 5.0, timing);  // still queued at close: close lingers
+    channel.send(std::vector<std::uint8_t>(100, 2), 5.0, timing); // still queued at close: close lingers
     std::this_thread::sleep_for(std::chrono::milliseconds(200));
     (void)::write(closing[1], "c", 1);
     channel.close();
@@ -136,16 +138,19 @@ BOOST_AUTO_TEST_CASE(closing_while_the_peer_sends_and_hangs_up_does_not_abort) {
   handshake(fd);
   char signal = 0;
   BOOST_REQUIRE(::read(closing[0], &signal, 1) == 1);
-  std::this_thread::sleep_for(std::chrono::milliseconds(100));  // the channel is inside close() now
-  writeAll(fd, std::string("\x00\x01" "A", 3));                  // one more message (a window ahead)
+  std::this_thread::sleep_for(std::chrono::milliseconds(100)); // the channel is inside close() now
+  writeAll(fd, std::string("\x00\x01"
+                           "A",
+                           3)); // one more message (a window ahead)
   std::this_thread::sleep_for(std::chrono::milliseconds(100));
-  ::close(fd);  // unread data pending: the kernel resets the connection (EPOLLHUP on the channel's side)
+  ::close(fd); // unread data pending: the kernel resets the connection (EPOLLHUP on the channel's side)
   std::this_thread::sleep_for(std::chrono::milliseconds(500));
   int status = 0;
   BOOST_REQUIRE(::waitpid(child, &status, 0) == child);
   ::close(listener);
-  BOOST_TEST_MESSAGE("channel process: " << (WIFSIGNALED(status) ? "killed by signal " + std::to_string(WTERMSIG(status))
-                                                                : "exit " + std::to_string(WEXITSTATUS(status))));
+  BOOST_TEST_MESSAGE("channel process: " << (WIFSIGNALED(status)
+                                                 ? "killed by signal " + std::to_string(WTERMSIG(status))
+                                                 : "exit " + std::to_string(WEXITSTATUS(status))));
   BOOST_TEST(WIFEXITED(status));
   BOOST_TEST(WEXITSTATUS(status) == 0);
 }

@@ -10,21 +10,26 @@
 using namespace railcosim::kernels;
 
 __global__ void evaluateEveryKernel(double* out) {
-    const HertzMindlinParams hertz{effectiveYoungModulus(1e9, 0.3, 1e9, 0.3),
-                                   effectiveShearModulus(shearModulus(1e9, 0.3), 0.3, shearModulus(1e9, 0.3), 0.3),
-                                   effectiveRadius(0.01, 0.01), effectiveMass(1.0, 1.0), dampingRatioFromRestitution(0.5)};
-    const BallastContactParams params{NormalModel::PohrtPopovElastoPlastic, hertz,
-                                      makePohrtPopovParams(hertz.effectiveYoungModulus, hertz.effectiveRadius, 2.13, 2.61e-5),
-                                      tangentialToNormalStiffnessRatio(0.3), StressDependentFrictionParams{0.6, -0.15, 5e6},
-                                      true};
-    const BallastContactResult r = ballastContactForces(
-        params, BallastContactHistory{}, ContactKinematics{1e-5, 0.0, Vec3{0, 0, 1}, Vec3{1e-7, 0, 0}, Vec3{0, 0, 0}});
-    const Vec3 rolling = boundedRollingTorque(Vec3{1, 0, 0}, 1.0, 1e-5, Vec3{0, 0, 0},
-                                              rollingResistanceMoment(rollingResistanceArm({0.2}, 0.01, 0.01), r.normalForce));
-    const TangentialForceResult t =
-        mindlinTangentialForce(hertz, Vec3{0, 0, 0}, Vec3{0, 0, 1}, 1e-5, 1.1e-5, Vec3{1e-7, 0, 0}, Vec3{0, 0, 0}, 0.5, 1.0);
-    out[threadIdx.x] = r.normalForce + norm(r.shearForce) + rolling.x + t.force.x + hertzCriticalTimeStep(hertz, 1.0) +
-                       rayleighTimeStep(0.01, 2600.0, 1e9, 0.25) +
-                       maxContactStressFromParticleWeight(1e-5, 2600.0, 9.81, 1e9, 0.005) +
-                       hertzNormalForce(hertz, 1e-5, 0.1) + pohrtPopovElasticForce(params.pohrtPopov, 1e-5);
+  const HertzMindlinParams hertz{effectiveYoungModulus(1e9, 0.3, 1e9, 0.3),
+                                 effectiveShearModulus(shearModulus(1e9, 0.3), 0.3, shearModulus(1e9, 0.3), 0.3),
+                                 effectiveRadius(0.01, 0.01), effectiveMass(1.0, 1.0),
+                                 dampingRatioFromRestitution(0.5)};
+  const BallastContactParams params{
+      NormalModel::PohrtPopovElastoPlastic,
+      hertz,
+      makePohrtPopovParams(hertz.effectiveYoungModulus, hertz.effectiveRadius, 2.13, 2.61e-5),
+      tangentialToNormalStiffnessRatio(0.3),
+      StressDependentFrictionParams{0.6, -0.15, 5e6},
+      true};
+  const BallastContactResult r = ballastContactForces(
+      params, BallastContactHistory{}, ContactKinematics{1e-5, 0.0, Vec3{0, 0, 1}, Vec3{1e-7, 0, 0}, Vec3{0, 0, 0}});
+  const Vec3 rolling =
+      boundedRollingTorque(Vec3{1, 0, 0}, 1.0, 1e-5, Vec3{0, 0, 0},
+                           rollingResistanceMoment(rollingResistanceArm({0.2}, 0.01, 0.01), r.normalForce));
+  const TangentialForceResult t = mindlinTangentialForce(hertz, Vec3{0, 0, 0}, Vec3{0, 0, 1}, 1e-5, 1.1e-5,
+                                                         Vec3{1e-7, 0, 0}, Vec3{0, 0, 0}, 0.5, 1.0);
+  out[threadIdx.x] = r.normalForce + norm(r.shearForce) + rolling.x + t.force.x + hertzCriticalTimeStep(hertz, 1.0) +
+                     rayleighTimeStep(0.01, 2600.0, 1e9, 0.25) +
+                     maxContactStressFromParticleWeight(1e-5, 2600.0, 9.81, 1e9, 0.005) +
+                     hertzNormalForce(hertz, 1e-5, 0.1) + pohrtPopovElasticForce(params.pohrtPopov, 1e-5);
 }

@@ -25,27 +25,27 @@ constexpr double kEnergyTolerance = 3e-3;
 constexpr double kResolvedEnergyTolerance = 1e-5;
 
 BOOST_AUTO_TEST_CASE(r3_single_fibre_conserves_energy) {
-    for (RotationScheme scheme : {RotationScheme::zhaoVanWachem, RotationScheme::rungeKutta4}) {
-        const auto r = rotationscenes::runSingleFibre(scheme, kTimeStep, 0.8);
-        BOOST_TEST_MESSAGE("R3 " << kernels::rotationSchemeName(scheme) << ": E0 = " << r.initialEnergy
-                                 << " J, max |E - E0|/E0 = " << r.maxRelativeEnergyError
-                                 << ", max |w| = " << r.maxAngularSpeed << " rad/s");
-        BOOST_TEST(r.maxRelativeEnergyError < kEnergyTolerance);
-        BOOST_TEST(r.maxRelativeEnergyError < kResolvedEnergyTolerance);
-        // The tilted fibre lands on one end and must start spinning: otherwise the test exercises no rotation.
-        BOOST_TEST(r.maxAngularSpeed > 1.0);
-    }
+  for (RotationScheme scheme : {RotationScheme::zhaoVanWachem, RotationScheme::rungeKutta4}) {
+    const auto r = rotationscenes::runSingleFibre(scheme, kTimeStep, 0.8);
+    BOOST_TEST_MESSAGE("R3 " << kernels::rotationSchemeName(scheme) << ": E0 = " << r.initialEnergy
+                             << " J, max |E - E0|/E0 = " << r.maxRelativeEnergyError
+                             << ", max |w| = " << r.maxAngularSpeed << " rad/s");
+    BOOST_TEST(r.maxRelativeEnergyError < kEnergyTolerance);
+    BOOST_TEST(r.maxRelativeEnergyError < kResolvedEnergyTolerance);
+    // The tilted fibre lands on one end and must start spinning: otherwise the test exercises no rotation.
+    BOOST_TEST(r.maxAngularSpeed > 1.0);
+  }
 }
 
 BOOST_AUTO_TEST_CASE(r4_nine_fibres_conserve_energy) {
-    for (RotationScheme scheme : {RotationScheme::zhaoVanWachem, RotationScheme::rungeKutta4}) {
-        const auto r = rotationscenes::runNineFibres(scheme, kTimeStep, 0.6);
-        BOOST_TEST_MESSAGE("R4 " << kernels::rotationSchemeName(scheme) << ": E0 = " << r.initialEnergy
-                                 << " J, max |E - E0|/E0 = " << r.maxRelativeEnergyError << ", fibre-fibre contact steps = "
-                                 << r.sphereSphereContactSteps << ", max |w| = " << r.maxAngularSpeed << " rad/s");
-        BOOST_TEST(r.maxRelativeEnergyError < kEnergyTolerance);
-        BOOST_TEST(r.maxRelativeEnergyError < kResolvedEnergyTolerance);
-        // Particle–particle collisions must occur (the point of R4 over R3).
-        BOOST_TEST(r.sphereSphereContactSteps > 0);
-    }
+  for (RotationScheme scheme : {RotationScheme::zhaoVanWachem, RotationScheme::rungeKutta4}) {
+    const auto r = rotationscenes::runNineFibres(scheme, kTimeStep, 0.6);
+    BOOST_TEST_MESSAGE("R4 " << kernels::rotationSchemeName(scheme) << ": E0 = " << r.initialEnergy
+                             << " J, max |E - E0|/E0 = " << r.maxRelativeEnergyError << ", fibre-fibre contact steps = "
+                             << r.sphereSphereContactSteps << ", max |w| = " << r.maxAngularSpeed << " rad/s");
+    BOOST_TEST(r.maxRelativeEnergyError < kEnergyTolerance);
+    BOOST_TEST(r.maxRelativeEnergyError < kResolvedEnergyTolerance);
+    // Particle–particle collisions must occur (the point of R4 over R3).
+    BOOST_TEST(r.sphereSphereContactSteps > 0);
+  }
 }

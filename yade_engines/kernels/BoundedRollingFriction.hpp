@@ -14,7 +14,7 @@ namespace railcosim::kernels {
 // One parameter per contact pair: η_r (particle–particle and particle–wall use separate values; the
 // thesis uses η_r = 1.0 against walls so that stones resting on a face cannot roll).
 struct BoundedRollingFrictionParams {
-    double rollingFrictionCoefficient;  // η_r [-]
+  double rollingFrictionCoefficient; // η_r [-]
 };
 
 // Rolling-resistance arm e_c = η_r R_r with R_r = R1 R2/(R1 + R2) (eqs. 5.2–5.3). A wall is radius2 =
@@ -22,12 +22,12 @@ struct BoundedRollingFrictionParams {
 // η_r must be calibrated with the definition used here. [m]
 RAILCOSIM_HOST_DEVICE inline double rollingResistanceArm(const BoundedRollingFrictionParams& p, double radius1,
                                                          double radius2) {
-    return p.rollingFrictionCoefficient / (1.0 / radius1 + 1.0 / radius2);
+  return p.rollingFrictionCoefficient / (1.0 / radius1 + 1.0 / radius2);
 }
 
 // Contribution of one contact to the particle's rolling-resistance budget M_r = Σ e_c |F_n|. [N m]
 RAILCOSIM_HOST_DEVICE inline double rollingResistanceMoment(double rollingArm, double normalForce) {
-    return rollingArm * std::fabs(normalForce);
+  return rollingArm * std::fabs(normalForce);
 }
 
 // Per-particle BROF torque, applied once after all contact moments are summed (eqs. 5.4–5.5 corrected).
@@ -46,29 +46,29 @@ RAILCOSIM_HOST_DEVICE inline double rollingResistanceMoment(double rollingArm, d
 RAILCOSIM_HOST_DEVICE inline Vec3 boundedRollingTorque(const Vec3& angularVelocity, double momentOfInertia,
                                                        double rotationTimeIncrement, const Vec3& appliedTorque,
                                                        double rollingResistanceBudget) {
-    const Vec3 stopTorque = (momentOfInertia / rotationTimeIncrement) * angularVelocity + appliedTorque;
-    const double stopMagnitude = norm(stopTorque);
-    if (stopMagnitude <= rollingResistanceBudget) return -stopTorque;
-    return (-rollingResistanceBudget / stopMagnitude) * stopTorque;
+  const Vec3 stopTorque = (momentOfInertia / rotationTimeIncrement) * angularVelocity + appliedTorque;
+  const double stopMagnitude = norm(stopTorque);
+  if (stopMagnitude <= rollingResistanceBudget) return -stopTorque;
+  return (-rollingResistanceBudget / stopMagnitude) * stopTorque;
 }
 
 // Host-only validation (throws std::invalid_argument with the offending value).
 inline void validate(const BoundedRollingFrictionParams& p, const char* where = "BoundedRollingFrictionParams") {
-    if (!(p.rollingFrictionCoefficient >= 0.0) || std::isinf(p.rollingFrictionCoefficient)) {
-        std::ostringstream message;
-        message << where << ": rollingFrictionCoefficient must be finite and >= 0, got " << p.rollingFrictionCoefficient;
-        throw std::invalid_argument(message.str());
-    }
+  if (!(p.rollingFrictionCoefficient >= 0.0) || std::isinf(p.rollingFrictionCoefficient)) {
+    std::ostringstream message;
+    message << where << ": rollingFrictionCoefficient must be finite and >= 0, got " << p.rollingFrictionCoefficient;
+    throw std::invalid_argument(message.str());
+  }
 }
 
 inline void validateRollingStep(double momentOfInertia, double rotationTimeIncrement,
                                 const char* where = "boundedRollingTorque") {
-    if (!(momentOfInertia > 0.0) || !(rotationTimeIncrement > 0.0)) {
-        std::ostringstream message;
-        message << where << ": momentOfInertia (" << momentOfInertia << " kg m²) and rotationTimeIncrement ("
-                << rotationTimeIncrement << " s) must both be > 0";
-        throw std::invalid_argument(message.str());
-    }
+  if (!(momentOfInertia > 0.0) || !(rotationTimeIncrement > 0.0)) {
+    std::ostringstream message;
+    message << where << ": momentOfInertia (" << momentOfInertia << " kg m²) and rotationTimeIncrement ("
+            << rotationTimeIncrement << " s) must both be > 0";
+    throw std::invalid_argument(message.str());
+  }
 }
 
-}  // namespace railcosim::kernels
+} // namespace railcosim::kernels

@@ -13,22 +13,22 @@ namespace railcosim::kernels {
 // §3.5). Use Δt = 0.1–0.3 T_R for the smallest particle. Material-only: ignores damping and contact law. [s]
 RAILCOSIM_HOST_DEVICE inline double rayleighTimeStep(double radius, double density, double shearModulus,
                                                      double poissonRatio) {
-    return pi * radius * std::sqrt(density / shearModulus) / (0.1631 * poissonRatio + 0.8766);
+  return pi * radius * std::sqrt(density / shearModulus) / (0.1631 * poissonRatio + 0.8766);
 }
 
 // Stability limit of the central-difference (leapfrog / velocity-Verlet) update for one mass on a
 // spring with viscous damping ratio ζ: Δt_c = (2/ω)(sqrt(1 + ζ²) − ζ), ω = sqrt(k/m) (Belytschko, Liu
 // & Moran 2000, §6.3). Heavily damped contacts (e → 0 gives ζ ≈ 14) need a ≈28× smaller step. [s]
 RAILCOSIM_HOST_DEVICE inline double springCriticalTimeStep(double mass, double stiffness, double dampingRatio) {
-    return 2.0 * std::sqrt(mass / stiffness) * (std::sqrt(1.0 + dampingRatio * dampingRatio) - dampingRatio);
+  return 2.0 * std::sqrt(mass / stiffness) * (std::sqrt(1.0 + dampingRatio * dampingRatio) - dampingRatio);
 }
 
 // Largest overlap of an undamped Hertz impact at approach speed v (energy balance
 // ½ m* v² = (8/15) E* √R* δ^{5/2}). [m]
 RAILCOSIM_HOST_DEVICE inline double hertzMaximumOverlap(const HertzMindlinParams& p, double impactVelocity) {
-    return std::pow(15.0 * p.effectiveMass * impactVelocity * impactVelocity /
-                        (16.0 * p.effectiveYoungModulus * std::sqrt(p.effectiveRadius)),
-                    0.4);
+  return std::pow(15.0 * p.effectiveMass * impactVelocity * impactVelocity /
+                      (16.0 * p.effectiveYoungModulus * std::sqrt(p.effectiveRadius)),
+                  0.4);
 }
 
 // Hertz–Mindlin contact step for the largest expected impact speed: the stiffest mode at δ_max is either
@@ -36,12 +36,12 @@ RAILCOSIM_HOST_DEVICE inline double hertzMaximumOverlap(const HertzMindlinParams
 // spheres (effective inverse mass 1/m + R²/I = 3.5/m, so 3.5 k_t). Take 0.2–0.5 of this value to leave
 // room for several simultaneous contacts per particle. [s]
 RAILCOSIM_HOST_DEVICE inline double hertzCriticalTimeStep(const HertzMindlinParams& p, double impactVelocity) {
-    const double overlap = hertzMaximumOverlap(p, impactVelocity);
-    const double normalStiffness = hertzNormalStiffness(p, overlap);
-    const double rotationalTangentialStiffness = 3.5 * mindlinTangentialStiffness(p, overlap);
-    const double stiffness =
-        normalStiffness > rotationalTangentialStiffness ? normalStiffness : rotationalTangentialStiffness;
-    return springCriticalTimeStep(p.effectiveMass, stiffness, p.dampingRatio);
+  const double overlap = hertzMaximumOverlap(p, impactVelocity);
+  const double normalStiffness = hertzNormalStiffness(p, overlap);
+  const double rotationalTangentialStiffness = 3.5 * mindlinTangentialStiffness(p, overlap);
+  const double stiffness =
+      normalStiffness > rotationalTangentialStiffness ? normalStiffness : rotationalTangentialStiffness;
+  return springCriticalTimeStep(p.effectiveMass, stiffness, p.dampingRatio);
 }
 
-}  // namespace railcosim::kernels
+} // namespace railcosim::kernels

@@ -5,4 +5,4 @@ namespace railcosim::kernels {
 
 constexpr double pi = 3.14159265358979323846;
 
-}  // namespace railcosim::kernels
+} // namespace railcosim::kernels

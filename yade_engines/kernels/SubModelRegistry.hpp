@@ -8,25 +8,24 @@ namespace railcosim::kernels {
 enum class SubModelKind { Normal, Damping, Tangential, FrictionCoefficient, Rolling, TimeStep };
 
 struct SubModelInfo {
-    const char* keyword;     // name used in configuration and docs/contact-models.md
-    SubModelKind kind;
-    const char* kernel;      // header and entry function
-    const char* parameters;  // named parameters with units
-    const char* history;     // per-contact (or per-particle) history slots, "none" if stateless
-    const char* reference;   // equation source
-    const char* verifiedBy;  // test file under tests/kernels/
+  const char* keyword; // name used in configuration and docs/contact-models.md
+  SubModelKind kind;
+  const char* kernel;     // header and entry function
+  const char* parameters; // named parameters with units
+  const char* history;    // per-contact (or per-particle) history slots, "none" if stateless
+  const char* reference;  // equation source
+  const char* verifiedBy; // test file under tests/kernels/
 };
 
 // Adding a sub-model: its kernel, one row here, one analytic test, one entry in docs/contact-models.md
 // (TestSubModelRegistry checks that the docs and the test files name every row).
 inline constexpr SubModelInfo subModelRegistry[] = {
     {"hertz", SubModelKind::Normal, "HertzMindlin.hpp: hertzElasticNormalForce, hertzNormalStiffness",
-     "E* [Pa], R* [m]", "none",
-     "Irazábal 2017 eqs. 3.13, 3.25a, 3.27 (Thornton's simplification)", "TestHertzMindlin.cpp"},
+     "E* [Pa], R* [m]", "none", "Irazábal 2017 eqs. 3.13, 3.25a, 3.27 (Thornton's simplification)",
+     "TestHertzMindlin.cpp"},
     {"pohrt_popov", SubModelKind::Normal, "PohrtPopov.hpp: pohrtPopovElasticForce, pohrtPopovElasticStiffness",
      "E* [Pa], R* [m], D_f [-], h (rms roughness) [m]", "none",
-     "Tolomeo & McDowell 2022 eqs. 1-5 (eq. 5 exponent corrected), closed form from F = 0",
-     "TestPohrtPopov.cpp"},
+     "Tolomeo & McDowell 2022 eqs. 1-5 (eq. 5 exponent corrected), closed form from F = 0", "TestPohrtPopov.cpp"},
     {"pohrt_popov_plastic", SubModelKind::Normal, "PohrtPopov.hpp: pohrtPopovElastoPlasticForce",
      "E* [Pa], R* [m], D_f [-], h (rms roughness) [m]", "maxNormalForce F_max [N], plasticOverlap delta_p [m]",
      "Tolomeo & McDowell 2022 eq. 6, written in overlap", "TestPohrtPopov.cpp"},
@@ -41,11 +40,10 @@ inline constexpr SubModelInfo subModelRegistry[] = {
      "Irazábal 2017 eqs. 3.20-3.24, 3.25b", "TestHertzMindlin.cpp"},
     {"stiffness_ratio", SubModelKind::Tangential,
      "PohrtPopov.hpp: tangentialToNormalStiffnessRatio; HertzMindlin.hpp: incrementalTangentialForce",
-     "nu [-] -> k_t/k_n [-], gamma [-], m* [kg], mu [-]",
-     "elasticShearForce F_te [N] (3), previous k_t [N/m]", "Tolomeo & McDowell 2022 eq. 7",
-     "TestPohrtPopov.cpp"},
-    {"coulomb", SubModelKind::FrictionCoefficient, "BallastContact.hpp: ballastContactForces",
-     "mu0 [-]", "none", "Irazábal 2017 eq. 3.24", "TestBallastContact.cpp"},
+     "nu [-] -> k_t/k_n [-], gamma [-], m* [kg], mu [-]", "elasticShearForce F_te [N] (3), previous k_t [N/m]",
+     "Tolomeo & McDowell 2022 eq. 7", "TestPohrtPopov.cpp"},
+    {"coulomb", SubModelKind::FrictionCoefficient, "BallastContact.hpp: ballastContactForces", "mu0 [-]", "none",
+     "Irazábal 2017 eq. 3.24", "TestBallastContact.cpp"},
     {"stress_dependent", SubModelKind::FrictionCoefficient,
      "StressDependentFriction.hpp: stressDependentFrictionCoefficient",
      "mu0 [-], gamma_mu (exponent, <= 0) [-], sigma_c,max [Pa]", "none",
@@ -65,15 +63,21 @@ inline constexpr SubModelInfo subModelRegistry[] = {
 inline constexpr std::size_t subModelCount = sizeof(subModelRegistry) / sizeof(subModelRegistry[0]);
 
 inline const char* toString(SubModelKind kind) {
-    switch (kind) {
-        case SubModelKind::Normal: return "normal";
-        case SubModelKind::Damping: return "damping";
-        case SubModelKind::Tangential: return "tangential";
-        case SubModelKind::FrictionCoefficient: return "friction";
-        case SubModelKind::Rolling: return "rolling";
-        case SubModelKind::TimeStep: return "timestep";
-    }
-    return "unknown";
+  switch (kind) {
+    case SubModelKind::Normal:
+      return "normal";
+    case SubModelKind::Damping:
+      return "damping";
+    case SubModelKind::Tangential:
+      return "tangential";
+    case SubModelKind::FrictionCoefficient:
+      return "friction";
+    case SubModelKind::Rolling:
+      return "rolling";
+    case SubModelKind::TimeStep:
+      return "timestep";
+  }
+  return "unknown";
 }
 
-}  // namespace railcosim::kernels
+} // namespace railcosim::kernels

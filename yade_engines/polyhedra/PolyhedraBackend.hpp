@@ -13,73 +13,73 @@ namespace railcosim::polyhedra {
 // Every array of the system in host memory. The CPU backend works on it directly; the CUDA backend keeps
 // a device mirror and copies to/from it only when the facade asks.
 struct HostData {
-    int stoneCount = 0;
-    std::vector<double> position, velocity;
-    std::vector<kernels::RotationState> rotation;
-    std::vector<double> force, torque, referencePosition;
-    std::vector<std::int32_t> shape;
-    std::vector<ShapeData> shapes;
-    std::vector<double> shapeVertices;
-    std::vector<double> nodePosition, nodeVelocity;
-    std::vector<std::int32_t> triangles;
-    std::vector<double> triangleForceSum, trianglePointSum, triangleWeightSum;
-    int maxPairs = 0, maxWalls = 0;
-    std::vector<ContactSlot> pairSlots, pairSlotsPrevious, wallSlots, wallSlotsPrevious;
-    std::vector<ContactOutput> pairOutput, wallOutput;
-    std::vector<ContactGeometry> wallGeometry;
-    std::vector<std::int32_t> pairCount, pairCountPrevious, wallCount, wallCountPrevious;
-    std::vector<std::uint32_t> cellKey;
-    std::vector<std::int32_t> sortedStone, cellStart, cellEnd;
-    std::uint32_t tableSize = 0;
-    double cellSize = 0.0;
-    double timeStep = 0.0;
-    Vec3 gravity{0.0, 0.0, 0.0};
-    double skin = 0.0;
-    double featureTolerance = 0.0;
-    int rebuildInterval = 10;
-    bool adaptiveRebuild = true;  // skip a due rebuild while no stone can outgrow the lists (Parameters)
-    ContactLawConstants stoneLaw{}, wallLaw{};
-    unsigned long long counters[counterCount] = {};
-    bool forcesValid = false;  // force/torque hold the contact forces of the current state
+  int stoneCount = 0;
+  std::vector<double> position, velocity;
+  std::vector<kernels::RotationState> rotation;
+  std::vector<double> force, torque, referencePosition;
+  std::vector<std::int32_t> shape;
+  std::vector<ShapeData> shapes;
+  std::vector<double> shapeVertices;
+  std::vector<double> nodePosition, nodeVelocity;
+  std::vector<std::int32_t> triangles;
+  std::vector<double> triangleForceSum, trianglePointSum, triangleWeightSum;
+  int maxPairs = 0, maxWalls = 0;
+  std::vector<ContactSlot> pairSlots, pairSlotsPrevious, wallSlots, wallSlotsPrevious;
+  std::vector<ContactOutput> pairOutput, wallOutput;
+  std::vector<ContactGeometry> wallGeometry;
+  std::vector<std::int32_t> pairCount, pairCountPrevious, wallCount, wallCountPrevious;
+  std::vector<std::uint32_t> cellKey;
+  std::vector<std::int32_t> sortedStone, cellStart, cellEnd;
+  std::uint32_t tableSize = 0;
+  double cellSize = 0.0;
+  double timeStep = 0.0;
+  Vec3 gravity{0.0, 0.0, 0.0};
+  double skin = 0.0;
+  double featureTolerance = 0.0;
+  int rebuildInterval = 10;
+  bool adaptiveRebuild = true; // skip a due rebuild while no stone can outgrow the lists (Parameters)
+  ContactLawConstants stoneLaw{}, wallLaw{};
+  unsigned long long counters[counterCount] = {};
+  bool forcesValid = false; // force/torque hold the contact forces of the current state
 
-    int nodeCount() const { return static_cast<int>(nodePosition.size() / 3); }
-    int triangleCount() const { return static_cast<int>(triangles.size() / 3); }
-    // Rebuilds within a step call may be skipped: adaptive rebuilds asked for and the surface at rest (moving
-    // nodes would need their own displacement bookkeeping, so a moving surface keeps every rebuild).
-    bool rebuildsMayBeSkipped() const {
-        if (!adaptiveRebuild) return false;
-        for (const double v : nodeVelocity)
-            if (v != 0.0) return false;
-        return true;
-    }
-    // Sizes every per-stone and per-triangle array after stones/shapes/walls are known.
-    void allocate();
-    // View on the current lists (pairSlots) with `previous*` as the lists of the last rebuild.
-    SystemView view();
+  int nodeCount() const { return static_cast<int>(nodePosition.size() / 3); }
+  int triangleCount() const { return static_cast<int>(triangles.size() / 3); }
+  // Rebuilds within a step call may be skipped: adaptive rebuilds asked for and the surface at rest (moving
+  // nodes would need their own displacement bookkeeping, so a moving surface keeps every rebuild).
+  bool rebuildsMayBeSkipped() const {
+    if (!adaptiveRebuild) return false;
+    for (const double v : nodeVelocity)
+      if (v != 0.0) return false;
+    return true;
+  }
+  // Sizes every per-stone and per-triangle array after stones/shapes/walls are known.
+  void allocate();
+  // View on the current lists (pairSlots) with `previous*` as the lists of the last rebuild.
+  SystemView view();
 };
 
 // What a step call reports back to the facade.
 struct BackendCounters {
-    unsigned long long values[counterCount] = {};
-    long long rebuilds = 0;
+  unsigned long long values[counterCount] = {};
+  long long rebuilds = 0;
 };
 
 class PolyhedraBackend {
 public:
-    virtual ~PolyhedraBackend() = default;
-    // Takes over the host data (allocated) as the initial state.
-    virtual void upload(HostData& data) = 0;
-    // Surface node positions/velocities changed on the host.
-    virtual void uploadSurface(HostData& data) = 0;
-    virtual void step(HostData& data, int steps, BackendCounters& counters) = 0;
-    // Scalar parameters (time step, gravity) changed: anything that baked them in must be redone.
-    virtual void parametersChanged() {}
-    // Brings stones, contact lists and surface outputs back into `data` (no-op for the CPU).
-    virtual void download(HostData& data) = 0;
+  virtual ~PolyhedraBackend() = default;
+  // Takes over the host data (allocated) as the initial state.
+  virtual void upload(HostData& data) = 0;
+  // Surface node positions/velocities changed on the host.
+  virtual void uploadSurface(HostData& data) = 0;
+  virtual void step(HostData& data, int steps, BackendCounters& counters) = 0;
+  // Scalar parameters (time step, gravity) changed: anything that baked them in must be redone.
+  virtual void parametersChanged() {}
+  // Brings stones, contact lists and surface outputs back into `data` (no-op for the CPU).
+  virtual void download(HostData& data) = 0;
 };
 
 std::unique_ptr<PolyhedraBackend> makeCpuBackend();
 // nullptr with `reason` filled when no usable CUDA device exists or the library was built without CUDA.
 std::unique_ptr<PolyhedraBackend> makeCudaBackend(std::string& reason);
 
-}  // namespace railcosim::polyhedra
+} // namespace railcosim::polyhedra

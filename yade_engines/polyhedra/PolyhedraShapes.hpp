@@ -27,7 +27,7 @@ ShapeTemplate dodecahedronStone(double a, double b, double c, double dilationRad
 /// (first stone centre at (spacing/2, spacing/2, spacing/2)), each with a template drawn from `shapes`, a
 /// random orientation and a jitter of ±`jitter` [m] per axis; reproducible from `seed`. With
 /// `withBox`, a floor at z = 0 and four side walls enclose the lattice (10 triangles, set with setWalls).
-void addLatticeBed(PolyhedraSystem& system, const std::vector<int>& shapes, int nx, int ny, int nz, double spacing, double jitter,
-                   unsigned seed, bool withBox);
+void addLatticeBed(PolyhedraSystem& system, const std::vector<int>& shapes, int nx, int ny, int nz, double spacing,
+                   double jitter, unsigned seed, bool withBox);
 
-}  // namespace railcosim::polyhedra
+} // namespace railcosim::polyhedra

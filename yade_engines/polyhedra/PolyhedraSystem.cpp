@@ -19,27 +19,29 @@ namespace railcosim::polyhedra {
 namespace {
 
 [[noreturn]] void fail(const std::string& where, const std::string& what) {
-    throw Error("PolyhedraSystem::" + where + ": " + what);
+  throw Error("PolyhedraSystem::" + where + ": " + what);
 }
 
 // The state of one stone (3, 4, 3, 3 values) as addStone and setState accept it: finite, non-zero quaternion.
-void checkStoneState(const std::string& where, std::size_t stone, const double* position, const double* orientation, const double* velocity,
-                     const double* angularVelocity) {
-    bool finite = true;
-    double norm2 = 0.0;
-    for (int c = 0; c < 3; ++c) finite = finite && std::isfinite(position[c]) && std::isfinite(velocity[c]) && std::isfinite(angularVelocity[c]);
-    for (int c = 0; c < 4; ++c) norm2 += orientation[c] * orientation[c];
-    if (!finite || !std::isfinite(norm2)) fail(where, "stone " + std::to_string(stone) + ": position, orientation and velocities must be finite numbers");
-    if (!(norm2 > 1e-24)) fail(where, "stone " + std::to_string(stone) + ": the orientation quaternion is zero");
+void checkStoneState(const std::string& where, std::size_t stone, const double* position, const double* orientation,
+                     const double* velocity, const double* angularVelocity) {
+  bool finite = true;
+  double norm2 = 0.0;
+  for (int c = 0; c < 3; ++c)
+    finite = finite && std::isfinite(position[c]) && std::isfinite(velocity[c]) && std::isfinite(angularVelocity[c]);
+  for (int c = 0; c < 4; ++c) norm2 += orientation[c] * orientation[c];
+  if (!finite || !std::isfinite(norm2))
+    fail(where, "stone " + std::to_string(stone) + ": position, orientation and velocities must be finite numbers");
+  if (!(norm2 > 1e-24)) fail(where, "stone " + std::to_string(stone) + ": the orientation quaternion is zero");
 }
 
 // `values` (width per stone) with the values of stone k moved to stone target(k).
 template <typename Values, typename Target>
 Values scattered(const Values& values, std::size_t width, std::size_t count, Target target) {
-    Values result(values.size());
-    for (std::size_t k = 0; k < count; ++k)
-        for (std::size_t c = 0; c < width; ++c) result[width * target(k) + c] = values[width * k + c];
-    return result;
+  Values result(values.size());
+  for (std::size_t k = 0; k < count; ++k)
+    for (std::size_t c = 0; c < width; ++c) result[width * target(k) + c] = values[width * k + c];
+  return result;
 }
 
 // Principal moments and axes of a symmetric inertia tensor, from Eigen's SelfAdjointEigenSolver (Householder
@@ -56,157 +58,167 @@ Values scattered(const Values& values, std::size_t width, std::size_t count, Tar
 //   4. every axis is signed so that v_k·e_k ≥ 0; a left-handed frame gets its least aligned axis reversed.
 // The moments are the Rayleigh quotients v_kᵀ I v_k of the chosen axes. axes[r][c]: component r of axis c.
 void principalAxes(const double inertia[3][3], double moments[3], double axes[3][3]) {
-    Eigen::Matrix3d tensor;
-    for (int r = 0; r < 3; ++r)
-        for (int c = 0; c < 3; ++c) tensor(r, c) = inertia[r][c];
-    Eigen::Matrix3d frame = Eigen::Matrix3d::Identity();  // column k: principal axis k in the given frame
-    const double offDiagonal = tensor(0, 1) * tensor(0, 1) + tensor(0, 2) * tensor(0, 2) + tensor(1, 2) * tensor(1, 2);
-    const double diagonal = tensor(0, 0) * tensor(0, 0) + tensor(1, 1) * tensor(1, 1) + tensor(2, 2) * tensor(2, 2);
-    if (offDiagonal > 1e-30 * diagonal) {  // else case 1: the given axes
-        const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> solver(tensor);
-        if (solver.info() != Eigen::Success) fail("addShape", "the eigen-decomposition of the inertia tensor did not converge");
-        const Eigen::Vector3d values = solver.eigenvalues();  // ascending
-        const Eigen::Matrix3d vectors = solver.eigenvectors();
-        const double tolerance = 1e-10 * std::max(std::fabs(values(0)), std::fabs(values(2)));
-        const bool lowPair = values(1) - values(0) <= tolerance, highPair = values(2) - values(1) <= tolerance;
-        if (lowPair != highPair) {
-            const Eigen::Vector3d odd = vectors.col(lowPair ? 2 : 0);
-            int oddAxis = 0;
-            odd.cwiseAbs().maxCoeff(&oddAxis);
-            frame.col(oddAxis) = odd;
-            bool first = true;
-            for (int k = 0; k < 3; ++k) {
-                if (k == oddAxis) continue;
-                Eigen::Vector3d axis = Eigen::Vector3d::Unit(k);
-                axis -= axis.dot(odd) * odd;
-                if (!first) {
-                    const Eigen::Vector3d previous = frame.col(3 - oddAxis - k);
-                    axis -= axis.dot(previous) * previous;
-                }
-                frame.col(k) = axis.normalized();
-                first = false;
-            }
-        } else if (!lowPair) {
-            static const int permutations[6][3] = {{0, 1, 2}, {0, 2, 1}, {1, 0, 2}, {1, 2, 0}, {2, 0, 1}, {2, 1, 0}};
-            int best = 0;
-            double bestAlignment = -1.0;
-            for (int p = 0; p < 6; ++p) {
-                double alignment = 0.0;
-                for (int k = 0; k < 3; ++k) alignment += std::fabs(vectors(k, permutations[p][k]));
-                if (alignment > bestAlignment) {
-                    bestAlignment = alignment;
-                    best = p;
-                }
-            }
-            for (int k = 0; k < 3; ++k) frame.col(k) = vectors.col(permutations[best][k]);
+  Eigen::Matrix3d tensor;
+  for (int r = 0; r < 3; ++r)
+    for (int c = 0; c < 3; ++c) tensor(r, c) = inertia[r][c];
+  Eigen::Matrix3d frame = Eigen::Matrix3d::Identity(); // column k: principal axis k in the given frame
+  const double offDiagonal = tensor(0, 1) * tensor(0, 1) + tensor(0, 2) * tensor(0, 2) + tensor(1, 2) * tensor(1, 2);
+  const double diagonal = tensor(0, 0) * tensor(0, 0) + tensor(1, 1) * tensor(1, 1) + tensor(2, 2) * tensor(2, 2);
+  if (offDiagonal > 1e-30 * diagonal) { // else case 1: the given axes
+    const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> solver(tensor);
+    if (solver.info() != Eigen::Success)
+      fail("addShape", "the eigen-decomposition of the inertia tensor did not converge");
+    const Eigen::Vector3d values = solver.eigenvalues(); // ascending
+    const Eigen::Matrix3d vectors = solver.eigenvectors();
+    const double tolerance = 1e-10 * std::max(std::fabs(values(0)), std::fabs(values(2)));
+    const bool lowPair = values(1) - values(0) <= tolerance, highPair = values(2) - values(1) <= tolerance;
+    if (lowPair != highPair) {
+      const Eigen::Vector3d odd = vectors.col(lowPair ? 2 : 0);
+      int oddAxis = 0;
+      odd.cwiseAbs().maxCoeff(&oddAxis);
+      frame.col(oddAxis) = odd;
+      bool first = true;
+      for (int k = 0; k < 3; ++k) {
+        if (k == oddAxis) continue;
+        Eigen::Vector3d axis = Eigen::Vector3d::Unit(k);
+        axis -= axis.dot(odd) * odd;
+        if (!first) {
+          const Eigen::Vector3d previous = frame.col(3 - oddAxis - k);
+          axis -= axis.dot(previous) * previous;
         }
-        for (int k = 0; k < 3; ++k)
-            if (frame(k, k) < 0.0) frame.col(k) = -frame.col(k);
-        if (frame.determinant() < 0.0) {
-            int leastAligned = 0;
-            frame.diagonal().minCoeff(&leastAligned);
-            frame.col(leastAligned) = -frame.col(leastAligned);
+        frame.col(k) = axis.normalized();
+        first = false;
+      }
+    } else if (!lowPair) {
+      static const int permutations[6][3] = {{0, 1, 2}, {0, 2, 1}, {1, 0, 2}, {1, 2, 0}, {2, 0, 1}, {2, 1, 0}};
+      int best = 0;
+      double bestAlignment = -1.0;
+      for (int p = 0; p < 6; ++p) {
+        double alignment = 0.0;
+        for (int k = 0; k < 3; ++k) alignment += std::fabs(vectors(k, permutations[p][k]));
+        if (alignment > bestAlignment) {
+          bestAlignment = alignment;
+          best = p;
         }
+      }
+      for (int k = 0; k < 3; ++k) frame.col(k) = vectors.col(permutations[best][k]);
     }
-    for (int k = 0; k < 3; ++k) {
-        moments[k] = frame.col(k).dot(tensor * frame.col(k));  // exactly tensor(k, k) for the given axes
-        for (int r = 0; r < 3; ++r) axes[r][k] = frame(r, k);
+    for (int k = 0; k < 3; ++k)
+      if (frame(k, k) < 0.0) frame.col(k) = -frame.col(k);
+    if (frame.determinant() < 0.0) {
+      int leastAligned = 0;
+      frame.diagonal().minCoeff(&leastAligned);
+      frame.col(leastAligned) = -frame.col(leastAligned);
     }
+  }
+  for (int k = 0; k < 3; ++k) {
+    moments[k] = frame.col(k).dot(tensor * frame.col(k)); // exactly tensor(k, k) for the given axes
+    for (int r = 0; r < 3; ++r) axes[r][k] = frame(r, k);
+  }
 }
 
 Quat quaternionFromMatrix(const double m[3][3]) {
-    const double trace = m[0][0] + m[1][1] + m[2][2];
-    Quat q;
-    if (trace > 0.0) {
-        const double s = 0.5 / std::sqrt(trace + 1.0);
-        q = Quat{0.25 / s, (m[2][1] - m[1][2]) * s, (m[0][2] - m[2][0]) * s, (m[1][0] - m[0][1]) * s};
-    } else if (m[0][0] > m[1][1] && m[0][0] > m[2][2]) {
-        const double s = 2.0 * std::sqrt(1.0 + m[0][0] - m[1][1] - m[2][2]);
-        q = Quat{(m[2][1] - m[1][2]) / s, 0.25 * s, (m[0][1] + m[1][0]) / s, (m[0][2] + m[2][0]) / s};
-    } else if (m[1][1] > m[2][2]) {
-        const double s = 2.0 * std::sqrt(1.0 + m[1][1] - m[0][0] - m[2][2]);
-        q = Quat{(m[0][2] - m[2][0]) / s, (m[0][1] + m[1][0]) / s, 0.25 * s, (m[1][2] + m[2][1]) / s};
-    } else {
-        const double s = 2.0 * std::sqrt(1.0 + m[2][2] - m[0][0] - m[1][1]);
-        q = Quat{(m[1][0] - m[0][1]) / s, (m[0][2] + m[2][0]) / s, (m[1][2] + m[2][1]) / s, 0.25 * s};
-    }
-    return normalized(q);
+  const double trace = m[0][0] + m[1][1] + m[2][2];
+  Quat q;
+  if (trace > 0.0) {
+    const double s = 0.5 / std::sqrt(trace + 1.0);
+    q = Quat{0.25 / s, (m[2][1] - m[1][2]) * s, (m[0][2] - m[2][0]) * s, (m[1][0] - m[0][1]) * s};
+  } else if (m[0][0] > m[1][1] && m[0][0] > m[2][2]) {
+    const double s = 2.0 * std::sqrt(1.0 + m[0][0] - m[1][1] - m[2][2]);
+    q = Quat{(m[2][1] - m[1][2]) / s, 0.25 * s, (m[0][1] + m[1][0]) / s, (m[0][2] + m[2][0]) / s};
+  } else if (m[1][1] > m[2][2]) {
+    const double s = 2.0 * std::sqrt(1.0 + m[1][1] - m[0][0] - m[2][2]);
+    q = Quat{(m[0][2] - m[2][0]) / s, (m[0][1] + m[1][0]) / s, 0.25 * s, (m[1][2] + m[2][1]) / s};
+  } else {
+    const double s = 2.0 * std::sqrt(1.0 + m[2][2] - m[0][0] - m[1][1]);
+    q = Quat{(m[1][0] - m[0][1]) / s, (m[0][2] + m[2][0]) / s, (m[1][2] + m[2][1]) / s, 0.25 * s};
+  }
+  return normalized(q);
 }
 
 ContactLawConstants lawOf(const Material& a, const Material& b, const char* which) {
-    kernels::validateRestitution(a.restitution, which);
-    if (!(a.youngModulus > 0.0) || !(b.youngModulus > 0.0) || !(a.poissonRatio > -1.0 && a.poissonRatio < 0.5) ||
-        !(b.poissonRatio > -1.0 && b.poissonRatio < 0.5) || !(a.friction >= 0.0)) {
-        std::ostringstream m;
-        m << "material of " << which << " contacts is invalid (E=" << a.youngModulus << " Pa, nu=" << a.poissonRatio
-          << ", mu=" << a.friction << "): need E > 0, -1 < nu < 0.5, mu >= 0";
-        fail("PolyhedraSystem", m.str());
-    }
-    ContactLawConstants law{};
-    law.effectiveYoungModulus = kernels::effectiveYoungModulus(a.youngModulus, a.poissonRatio, b.youngModulus, b.poissonRatio);
-    law.effectiveShearModulus = kernels::effectiveShearModulus(kernels::shearModulus(a.youngModulus, a.poissonRatio), a.poissonRatio,
-                                                               kernels::shearModulus(b.youngModulus, b.poissonRatio), b.poissonRatio);
-    law.dampingRatio = kernels::dampingRatioFromRestitution(a.restitution);
-    law.friction = a.friction;
-    return law;
+  kernels::validateRestitution(a.restitution, which);
+  if (!(a.youngModulus > 0.0) || !(b.youngModulus > 0.0) || !(a.poissonRatio > -1.0 && a.poissonRatio < 0.5) ||
+      !(b.poissonRatio > -1.0 && b.poissonRatio < 0.5) || !(a.friction >= 0.0)) {
+    std::ostringstream m;
+    m << "material of " << which << " contacts is invalid (E=" << a.youngModulus << " Pa, nu=" << a.poissonRatio
+      << ", mu=" << a.friction << "): need E > 0, -1 < nu < 0.5, mu >= 0";
+    fail("PolyhedraSystem", m.str());
+  }
+  ContactLawConstants law{};
+  law.effectiveYoungModulus =
+      kernels::effectiveYoungModulus(a.youngModulus, a.poissonRatio, b.youngModulus, b.poissonRatio);
+  law.effectiveShearModulus =
+      kernels::effectiveShearModulus(kernels::shearModulus(a.youngModulus, a.poissonRatio), a.poissonRatio,
+                                     kernels::shearModulus(b.youngModulus, b.poissonRatio), b.poissonRatio);
+  law.dampingRatio = kernels::dampingRatioFromRestitution(a.restitution);
+  law.friction = a.friction;
+  return law;
 }
 
-}  // namespace
+} // namespace
 
 const char* backendName(Backend backend) {
-    switch (backend) {
-    case Backend::Automatic: return "automatic";
-    case Backend::Cpu: return "cpu";
-    case Backend::Cuda: return "cuda";
-    }
-    return "?";
+  switch (backend) {
+    case Backend::Automatic:
+      return "automatic";
+    case Backend::Cpu:
+      return "cpu";
+    case Backend::Cuda:
+      return "cuda";
+  }
+  return "?";
 }
 
 struct PolyhedraSystem::Implementation {
-    Parameters parameters;
-    HostData data;
-    std::vector<ShapeProperties> properties;
-    std::vector<ShapeTemplate> templates;  // in the principal frame
-    std::unique_ptr<PolyhedraBackend> backend;
-    Backend active = Backend::Cpu;
-    std::string reason;
-    bool started = false;
-    bool hostCurrent = true;  // host arrays hold the latest state
-    bool warnedDangerous = false;
-    int lastSteps = 0;
-    double time = 0.0;
-    StepStatistics statistics;
-    // Storage order (set at the first step): stone k of the arrays is the user's stone userOf[k]; empty
-    // before the first step, when the arrays are in the user's (addStone) order.
-    std::vector<std::int32_t> userOf, storedOf;
+  Parameters parameters;
+  HostData data;
+  std::vector<ShapeProperties> properties;
+  std::vector<ShapeTemplate> templates; // in the principal frame
+  std::unique_ptr<PolyhedraBackend> backend;
+  Backend active = Backend::Cpu;
+  std::string reason;
+  bool started = false;
+  bool hostCurrent = true; // host arrays hold the latest state
+  bool warnedDangerous = false;
+  int lastSteps = 0;
+  double time = 0.0;
+  StepStatistics statistics;
+  // Storage order (set at the first step): stone k of the arrays is the user's stone userOf[k]; empty
+  // before the first step, when the arrays are in the user's (addStone) order.
+  std::vector<std::int32_t> userOf, storedOf;
 
-    std::size_t stored(std::size_t user) const { return storedOf.empty() ? user : static_cast<std::size_t>(storedOf[user]); }
-    std::size_t user(std::size_t storedIndex) const { return userOf.empty() ? storedIndex : static_cast<std::size_t>(userOf[storedIndex]); }
-    // `width` values per stone, stored order -> user order.
-    std::vector<double> inUserOrder(const std::vector<double>& values, std::size_t width) const {
-        if (userOf.empty()) return values;
-        return scattered(values, width, userOf.size(), [&](std::size_t k) { return user(k); });
-    }
-    void storeInSpatialOrder();
-    void restoreUserOrder();
-    // Per-stone arrays that exist before the first step, permuted by storeInSpatialOrder.
-    // Moves the values of stone k to stone target(k).
-    template <typename Target>
-    void permuteStones(Target target) {
-        HostData& d = data;
-        const std::size_t n = userOf.size();
-        d.position = scattered(d.position, 3, n, target);
-        d.velocity = scattered(d.velocity, 3, n, target);
-        d.rotation = scattered(d.rotation, 1, n, target);
-        d.shape = scattered(d.shape, 1, n, target);
-    }
+  std::size_t stored(std::size_t user) const {
+    return storedOf.empty() ? user : static_cast<std::size_t>(storedOf[user]);
+  }
+  std::size_t user(std::size_t storedIndex) const {
+    return userOf.empty() ? storedIndex : static_cast<std::size_t>(userOf[storedIndex]);
+  }
+  // `width` values per stone, stored order -> user order.
+  std::vector<double> inUserOrder(const std::vector<double>& values, std::size_t width) const {
+    if (userOf.empty()) return values;
+    return scattered(values, width, userOf.size(), [&](std::size_t k) { return user(k); });
+  }
+  void storeInSpatialOrder();
+  void restoreUserOrder();
+  // Per-stone arrays that exist before the first step, permuted by storeInSpatialOrder.
+  // Moves the values of stone k to stone target(k).
+  template <typename Target>
+  void permuteStones(Target target) {
+    HostData& d = data;
+    const std::size_t n = userOf.size();
+    d.position = scattered(d.position, 3, n, target);
+    d.velocity = scattered(d.velocity, 3, n, target);
+    d.rotation = scattered(d.rotation, 1, n, target);
+    d.shape = scattered(d.shape, 1, n, target);
+  }
 
-    void sync() {
-        if (!hostCurrent) {
-            backend->download(data);
-            hostCurrent = true;
-        }
+  void sync() {
+    if (!hostCurrent) {
+      backend->download(data);
+      hostCurrent = true;
     }
+  }
 };
 
 // Stones are stored in Morton (Z-curve) order of their grid cells at the first step: neighbours in space
@@ -216,479 +228,499 @@ struct PolyhedraSystem::Implementation {
 // 1e5 stones it fits and the order made no difference). Stones move little in a bed, so the order stays
 // good; the accessors translate back to the user's order.
 void PolyhedraSystem::Implementation::storeInSpatialOrder() {
-    HostData& d = data;
-    const std::size_t n = static_cast<std::size_t>(d.stoneCount);
-    Vec3 lowest{1e300, 1e300, 1e300};
-    for (std::size_t i = 0; i < n; ++i) {
-        lowest.x = std::min(lowest.x, d.position[3 * i]);
-        lowest.y = std::min(lowest.y, d.position[3 * i + 1]);
-        lowest.z = std::min(lowest.z, d.position[3 * i + 2]);
-    }
-    // 21 bits per axis: 2e6 cells along each, far beyond any bed that fits in memory (clamped if not).
-    auto spread = [](std::uint64_t v) {
-        std::uint64_t r = 0;
-        for (int b = 0; b < 21; ++b) r |= ((v >> b) & 1u) << (3 * b);
-        return r;
-    };
-    auto cell = [&](double x, double origin) {
-        const double c = std::floor((x - origin) / d.cellSize);
-        return c >= 0.0 ? static_cast<std::uint64_t>(std::min(c, 2097151.0)) : std::uint64_t{0};  // NaN: 0
-    };
-    std::vector<std::pair<std::uint64_t, std::int32_t>> keyed(n);
-    for (std::size_t i = 0; i < n; ++i) {
-        const std::uint64_t key = spread(cell(d.position[3 * i], lowest.x)) | (spread(cell(d.position[3 * i + 1], lowest.y)) << 1) |
-                                  (spread(cell(d.position[3 * i + 2], lowest.z)) << 2);
-        keyed[i] = {key, static_cast<std::int32_t>(i)};
-    }
-    std::stable_sort(keyed.begin(), keyed.end(), [](const auto& a, const auto& b) { return a.first < b.first; });
-    userOf.resize(n);
-    storedOf.resize(n);
-    for (std::size_t k = 0; k < n; ++k) {
-        userOf[k] = keyed[k].second;
-        storedOf[keyed[k].second] = static_cast<std::int32_t>(k);
-    }
-    permuteStones([&](std::size_t k) { return stored(k); });
+  HostData& d = data;
+  const std::size_t n = static_cast<std::size_t>(d.stoneCount);
+  Vec3 lowest{1e300, 1e300, 1e300};
+  for (std::size_t i = 0; i < n; ++i) {
+    lowest.x = std::min(lowest.x, d.position[3 * i]);
+    lowest.y = std::min(lowest.y, d.position[3 * i + 1]);
+    lowest.z = std::min(lowest.z, d.position[3 * i + 2]);
+  }
+  // 21 bits per axis: 2e6 cells along each, far beyond any bed that fits in memory (clamped if not).
+  auto spread = [](std::uint64_t v) {
+    std::uint64_t r = 0;
+    for (int b = 0; b < 21; ++b) r |= ((v >> b) & 1u) << (3 * b);
+    return r;
+  };
+  auto cell = [&](double x, double origin) {
+    const double c = std::floor((x - origin) / d.cellSize);
+    return c >= 0.0 ? static_cast<std::uint64_t>(std::min(c, 2097151.0)) : std::uint64_t{0}; // NaN: 0
+  };
+  std::vector<std::pair<std::uint64_t, std::int32_t>> keyed(n);
+  for (std::size_t i = 0; i < n; ++i) {
+    const std::uint64_t key = spread(cell(d.position[3 * i], lowest.x)) |
+                              (spread(cell(d.position[3 * i + 1], lowest.y)) << 1) |
+                              (spread(cell(d.position[3 * i + 2], lowest.z)) << 2);
+    keyed[i] = {key, static_cast<std::int32_t>(i)};
+  }
+  std::stable_sort(keyed.begin(), keyed.end(), [](const auto& a, const auto& b) { return a.first < b.first; });
+  userOf.resize(n);
+  storedOf.resize(n);
+  for (std::size_t k = 0; k < n; ++k) {
+    userOf[k] = keyed[k].second;
+    storedOf[keyed[k].second] = static_cast<std::int32_t>(k);
+  }
+  permuteStones([&](std::size_t k) { return stored(k); });
 }
 
 // Undoes storeInSpatialOrder when the first step fails before it started (e.g. out of device memory), so
 // that a retry, or more addStone calls, find the arrays in the user's order again.
 void PolyhedraSystem::Implementation::restoreUserOrder() {
-    if (userOf.empty()) return;
-    permuteStones([&](std::size_t k) { return user(k); });
-    userOf.clear();
-    storedOf.clear();
+  if (userOf.empty()) return;
+  permuteStones([&](std::size_t k) { return user(k); });
+  userOf.clear();
+  storedOf.clear();
 }
 
 PolyhedraSystem::PolyhedraSystem(const Parameters& p) : implementation_(std::make_unique<Implementation>()) {
-    if (!(p.timeStep > 0.0)) fail("PolyhedraSystem", "timeStep must be > 0 s, got " + std::to_string(p.timeStep));
-    if (p.rebuildInterval < 1) fail("PolyhedraSystem", "rebuildInterval must be >= 1");
-    if (p.maxNeighbours < 1 || p.maxWallNeighbours < 1) fail("PolyhedraSystem", "maxNeighbours and maxWallNeighbours must be >= 1");
-    if (!(p.featureTolerance >= 0.0 && p.featureTolerance < 1.0))
-        fail("PolyhedraSystem", "featureTolerance must be in [0, 1) (fraction of the dilation radius)");
-    Implementation& m = *implementation_;
-    m.parameters = p;
-    HostData& d = m.data;
-    d.timeStep = p.timeStep;
-    d.gravity = Vec3{p.gravity[0], p.gravity[1], p.gravity[2]};
-    d.featureTolerance = p.featureTolerance;
-    d.rebuildInterval = p.rebuildInterval;
-    d.adaptiveRebuild = p.adaptiveRebuild;
-    d.maxPairs = p.maxNeighbours;
-    d.maxWalls = p.maxWallNeighbours;
-    d.stoneLaw = lawOf(p.stone, p.stone, "stone-stone");
-    d.wallLaw = lawOf(p.wall, p.stone, "stone-wall");
-    if (p.backend != Backend::Cpu) {
-        m.backend = makeCudaBackend(m.reason);
-        if (m.backend) {
-            m.active = Backend::Cuda;
-        } else if (p.backend == Backend::Cuda) {
-            fail("PolyhedraSystem", "the CUDA backend was requested but is unusable: " + m.reason +
-                                        "; use Backend::Automatic or Backend::Cpu to run on the CPU reference");
-        }
-    } else {
-        m.reason = "CPU reference requested";
+  if (!(p.timeStep > 0.0)) fail("PolyhedraSystem", "timeStep must be > 0 s, got " + std::to_string(p.timeStep));
+  if (p.rebuildInterval < 1) fail("PolyhedraSystem", "rebuildInterval must be >= 1");
+  if (p.maxNeighbours < 1 || p.maxWallNeighbours < 1)
+    fail("PolyhedraSystem", "maxNeighbours and maxWallNeighbours must be >= 1");
+  if (!(p.featureTolerance >= 0.0 && p.featureTolerance < 1.0))
+    fail("PolyhedraSystem", "featureTolerance must be in [0, 1) (fraction of the dilation radius)");
+  Implementation& m = *implementation_;
+  m.parameters = p;
+  HostData& d = m.data;
+  d.timeStep = p.timeStep;
+  d.gravity = Vec3{p.gravity[0], p.gravity[1], p.gravity[2]};
+  d.featureTolerance = p.featureTolerance;
+  d.rebuildInterval = p.rebuildInterval;
+  d.adaptiveRebuild = p.adaptiveRebuild;
+  d.maxPairs = p.maxNeighbours;
+  d.maxWalls = p.maxWallNeighbours;
+  d.stoneLaw = lawOf(p.stone, p.stone, "stone-stone");
+  d.wallLaw = lawOf(p.wall, p.stone, "stone-wall");
+  if (p.backend != Backend::Cpu) {
+    m.backend = makeCudaBackend(m.reason);
+    if (m.backend) {
+      m.active = Backend::Cuda;
+    } else if (p.backend == Backend::Cuda) {
+      fail("PolyhedraSystem", "the CUDA backend was requested but is unusable: " + m.reason +
+                                  "; use Backend::Automatic or Backend::Cpu to run on the CPU reference");
     }
-    if (!m.backend) {
-        m.backend = makeCpuBackend();
-        m.active = Backend::Cpu;
-        if (p.backend == Backend::Automatic) {
-            // Said once per process: a bed of many systems should not repeat it.
-            static bool said = false;
-            if (!said) {
-                log(LogLevel::Warning, "polyhedra: running on the CPU reference, GPU unavailable (" + m.reason + ")");
-                said = true;
-            }
-        }
+  } else {
+    m.reason = "CPU reference requested";
+  }
+  if (!m.backend) {
+    m.backend = makeCpuBackend();
+    m.active = Backend::Cpu;
+    if (p.backend == Backend::Automatic) {
+      // Said once per process: a bed of many systems should not repeat it.
+      static bool said = false;
+      if (!said) {
+        log(LogLevel::Warning, "polyhedra: running on the CPU reference, GPU unavailable (" + m.reason + ")");
+        said = true;
+      }
     }
+  }
 }
 
 PolyhedraSystem::~PolyhedraSystem() = default;
 
 int PolyhedraSystem::addShape(const ShapeTemplate& shape) {
-    Implementation& m = *implementation_;
-    if (m.started) fail("addShape", "shapes must be added before the first step");
-    const std::size_t vertexCount = shape.vertices.size() / 3;
-    if (shape.vertices.size() % 3 != 0 || vertexCount < 1)
-        fail("addShape", "vertices must hold 3 coordinates per vertex and at least one vertex");
-    if (!(shape.dilationRadius > 0.0)) fail("addShape", "dilationRadius must be > 0 m");
-    if (!(shape.density > 0.0)) fail("addShape", "density must be > 0 kg/m^3");
-    for (double x : shape.vertices)
-        if (!std::isfinite(x)) fail("addShape", "a vertex coordinate is not finite");
-    auto vertex = [&](std::int32_t k) { return Vec3{shape.vertices[3 * k], shape.vertices[3 * k + 1], shape.vertices[3 * k + 2]}; };
-    // Volume, centroid and inertia of the core from its closed triangulation (signed tetrahedra with the
-    // origin); a single vertex, a segment or a flat core has no volume: treated as a point mass sphere.
-    double volume = 0.0;
-    Vec3 firstMoment{0, 0, 0};
-    double second[3][3] = {{0, 0, 0}, {0, 0, 0}, {0, 0, 0}};  // ∫ x_i x_j dV about the origin
-    double area = 0.0;
-    if (shape.triangles.size() % 3 != 0) fail("addShape", "triangles must hold 3 indices per triangle");
+  Implementation& m = *implementation_;
+  if (m.started) fail("addShape", "shapes must be added before the first step");
+  const std::size_t vertexCount = shape.vertices.size() / 3;
+  if (shape.vertices.size() % 3 != 0 || vertexCount < 1)
+    fail("addShape", "vertices must hold 3 coordinates per vertex and at least one vertex");
+  if (!(shape.dilationRadius > 0.0)) fail("addShape", "dilationRadius must be > 0 m");
+  if (!(shape.density > 0.0)) fail("addShape", "density must be > 0 kg/m^3");
+  for (double x : shape.vertices)
+    if (!std::isfinite(x)) fail("addShape", "a vertex coordinate is not finite");
+  auto vertex = [&](std::int32_t k) {
+    return Vec3{shape.vertices[3 * k], shape.vertices[3 * k + 1], shape.vertices[3 * k + 2]};
+  };
+  // Volume, centroid and inertia of the core from its closed triangulation (signed tetrahedra with the
+  // origin); a single vertex, a segment or a flat core has no volume: treated as a point mass sphere.
+  double volume = 0.0;
+  Vec3 firstMoment{0, 0, 0};
+  double second[3][3] = {{0, 0, 0}, {0, 0, 0}, {0, 0, 0}}; // ∫ x_i x_j dV about the origin
+  double area = 0.0;
+  if (shape.triangles.size() % 3 != 0) fail("addShape", "triangles must hold 3 indices per triangle");
+  for (std::size_t t = 0; t < shape.triangles.size(); t += 3) {
+    for (int c = 0; c < 3; ++c)
+      if (shape.triangles[t + c] < 0 || static_cast<std::size_t>(shape.triangles[t + c]) >= vertexCount)
+        fail("addShape", "triangle " + std::to_string(t / 3) + " refers to a vertex out of range");
+    const Vec3 a = vertex(shape.triangles[t]), b = vertex(shape.triangles[t + 1]), c = vertex(shape.triangles[t + 2]);
+    const double v6 = kernels::dot(a, kernels::cross(b, c)); // 6 × signed tetra volume
+    volume += v6 / 6.0;
+    firstMoment += (v6 / 24.0) * (a + b + c);
+    const double pa[3] = {a.x, a.y, a.z}, pb[3] = {b.x, b.y, b.z}, pc[3] = {c.x, c.y, c.z};
+    for (int i = 0; i < 3; ++i)
+      for (int j = 0; j < 3; ++j)
+        second[i][j] += v6 / 120.0 *
+                        (2 * (pa[i] * pa[j] + pb[i] * pb[j] + pc[i] * pc[j]) + pa[i] * pb[j] + pb[i] * pa[j] +
+                         pa[i] * pc[j] + pc[i] * pa[j] + pb[i] * pc[j] + pc[i] * pb[j]);
+    area += 0.5 * kernels::norm(kernels::cross(b - a, c - a));
+  }
+  ShapeProperties props;
+  const double r = shape.dilationRadius;
+  Vec3 centroid{0, 0, 0};
+  double principal[3] = {0, 0, 0};
+  double axes[3][3] = {{1, 0, 0}, {0, 1, 0}, {0, 0, 1}};
+  const double sphereVolume = 4.0 / 3.0 * kernels::pi * r * r * r;
+  if (!shape.triangles.empty()) {
+    if (!(volume > 0.0))
+      fail("addShape", "the core triangulation encloses no positive volume (" + std::to_string(volume) +
+                           " m^3); triangles must be closed and counter-clockwise seen from outside");
+    centroid = firstMoment / volume;
+    // Convexity: every vertex lies behind every triangle's plane (tolerance 1e-9 of the size).
+    double size = 0.0;
+    for (std::size_t k = 0; k < vertexCount; ++k) size = std::max(size, kernels::norm(vertex(k) - centroid));
     for (std::size_t t = 0; t < shape.triangles.size(); t += 3) {
-        for (int c = 0; c < 3; ++c)
-            if (shape.triangles[t + c] < 0 || static_cast<std::size_t>(shape.triangles[t + c]) >= vertexCount)
-                fail("addShape", "triangle " + std::to_string(t / 3) + " refers to a vertex out of range");
-        const Vec3 a = vertex(shape.triangles[t]), b = vertex(shape.triangles[t + 1]), c = vertex(shape.triangles[t + 2]);
-        const double v6 = kernels::dot(a, kernels::cross(b, c));  // 6 × signed tetra volume
-        volume += v6 / 6.0;
-        firstMoment += (v6 / 24.0) * (a + b + c);
-        const double pa[3] = {a.x, a.y, a.z}, pb[3] = {b.x, b.y, b.z}, pc[3] = {c.x, c.y, c.z};
-        for (int i = 0; i < 3; ++i)
-            for (int j = 0; j < 3; ++j)
-                second[i][j] += v6 / 120.0 *
-                                (2 * (pa[i] * pa[j] + pb[i] * pb[j] + pc[i] * pc[j]) + pa[i] * pb[j] + pb[i] * pa[j] +
-                                 pa[i] * pc[j] + pc[i] * pa[j] + pb[i] * pc[j] + pc[i] * pb[j]);
-        area += 0.5 * kernels::norm(kernels::cross(b - a, c - a));
+      const Vec3 a = vertex(shape.triangles[t]), b = vertex(shape.triangles[t + 1]), c = vertex(shape.triangles[t + 2]);
+      Vec3 normal = kernels::cross(b - a, c - a);
+      const double length = kernels::norm(normal);
+      if (length <= 0.0) continue;
+      normal = normal / length;
+      for (std::size_t k = 0; k < vertexCount; ++k)
+        if (kernels::dot(vertex(k) - a, normal) > 1e-9 * size)
+          fail("addShape", "the core is not convex: vertex " + std::to_string(k) +
+                               " lies outside the plane of triangle " + std::to_string(t / 3) +
+                               "; use the convex hull of the stone");
     }
-    ShapeProperties props;
-    const double r = shape.dilationRadius;
-    Vec3 centroid{0, 0, 0};
-    double principal[3] = {0, 0, 0};
-    double axes[3][3] = {{1, 0, 0}, {0, 1, 0}, {0, 0, 1}};
-    const double sphereVolume = 4.0 / 3.0 * kernels::pi * r * r * r;
-    if (!shape.triangles.empty()) {
-        if (!(volume > 0.0))
-            fail("addShape", "the core triangulation encloses no positive volume (" + std::to_string(volume) +
-                                 " m^3); triangles must be closed and counter-clockwise seen from outside");
-        centroid = firstMoment / volume;
-        // Convexity: every vertex lies behind every triangle's plane (tolerance 1e-9 of the size).
-        double size = 0.0;
-        for (std::size_t k = 0; k < vertexCount; ++k) size = std::max(size, kernels::norm(vertex(k) - centroid));
-        for (std::size_t t = 0; t < shape.triangles.size(); t += 3) {
-            const Vec3 a = vertex(shape.triangles[t]), b = vertex(shape.triangles[t + 1]), c = vertex(shape.triangles[t + 2]);
-            Vec3 normal = kernels::cross(b - a, c - a);
-            const double length = kernels::norm(normal);
-            if (length <= 0.0) continue;
-            normal = normal / length;
-            for (std::size_t k = 0; k < vertexCount; ++k)
-                if (kernels::dot(vertex(k) - a, normal) > 1e-9 * size)
-                    fail("addShape", "the core is not convex: vertex " + std::to_string(k) + " lies outside the plane of triangle " +
-                                         std::to_string(t / 3) + "; use the convex hull of the stone");
-        }
-        // Inertia about the centroid (per unit density): I = tr(S) 1 − S with S the second moment.
-        double s[3][3];
-        const double c3[3] = {centroid.x, centroid.y, centroid.z};
-        for (int i = 0; i < 3; ++i)
-            for (int j = 0; j < 3; ++j) s[i][j] = second[i][j] - volume * c3[i] * c3[j];
-        const double traceS = s[0][0] + s[1][1] + s[2][2];
-        double inertia[3][3];
-        for (int i = 0; i < 3; ++i)
-            for (int j = 0; j < 3; ++j) inertia[i][j] = (i == j ? traceS : 0.0) - s[i][j];
-        principalAxes(inertia, principal, axes);  // right-handed
-        // Steiner: V(K ⊕ rB) = V + S r + M r² + (4/3)π r³, with M = ½ Σ_edges L φ (φ: angle between the
-        // normals of the two triangles of the edge; coplanar triangles contribute nothing).
-        std::map<std::pair<int, int>, std::vector<Vec3>> edgeNormals;
-        for (std::size_t t = 0; t < shape.triangles.size(); t += 3) {
-            const Vec3 a = vertex(shape.triangles[t]), b = vertex(shape.triangles[t + 1]), c = vertex(shape.triangles[t + 2]);
-            Vec3 normal = kernels::cross(b - a, c - a);
-            normal = normal / kernels::norm(normal);
-            for (int e = 0; e < 3; ++e) {
-                int u = shape.triangles[t + e], w = shape.triangles[t + (e + 1) % 3];
-                edgeNormals[{std::min(u, w), std::max(u, w)}].push_back(normal);
-            }
-        }
-        double meanCurvatureIntegral = 0.0;
-        for (const auto& [edge, normals] : edgeNormals) {
-            if (normals.size() != 2) fail("addShape", "the core triangulation is not closed (an edge has " + std::to_string(normals.size()) + " triangles)");
-            const double angle = std::acos(std::clamp(kernels::dot(normals[0], normals[1]), -1.0, 1.0));
-            meanCurvatureIntegral += 0.5 * kernels::norm(vertex(edge.first) - vertex(edge.second)) * angle;
-        }
-        props.dilatedVolume = volume + area * r + meanCurvatureIntegral * r * r + sphereVolume;
-        // Inertia of the dilated body approximated by the core scaled to the dilated volume (I ∝ V^{5/3}):
-        // exact for a sphere-like core, within a few % for r_d ≤ 0.1 of the stone size.
-        const double scale = std::pow(props.dilatedVolume / volume, 5.0 / 3.0);
-        for (int k = 0; k < 3; ++k) principal[k] *= shape.density * scale;
-    } else {
-        if (vertexCount != 1) fail("addShape", "a core with several vertices needs its triangles (for mass and inertia)");
-        centroid = vertex(0);
-        props.dilatedVolume = sphereVolume;
-        for (int k = 0; k < 3; ++k) principal[k] = 0.4 * shape.density * sphereVolume * r * r;
+    // Inertia about the centroid (per unit density): I = tr(S) 1 − S with S the second moment.
+    double s[3][3];
+    const double c3[3] = {centroid.x, centroid.y, centroid.z};
+    for (int i = 0; i < 3; ++i)
+      for (int j = 0; j < 3; ++j) s[i][j] = second[i][j] - volume * c3[i] * c3[j];
+    const double traceS = s[0][0] + s[1][1] + s[2][2];
+    double inertia[3][3];
+    for (int i = 0; i < 3; ++i)
+      for (int j = 0; j < 3; ++j) inertia[i][j] = (i == j ? traceS : 0.0) - s[i][j];
+    principalAxes(inertia, principal, axes); // right-handed
+    // Steiner: V(K ⊕ rB) = V + S r + M r² + (4/3)π r³, with M = ½ Σ_edges L φ (φ: angle between the
+    // normals of the two triangles of the edge; coplanar triangles contribute nothing).
+    std::map<std::pair<int, int>, std::vector<Vec3>> edgeNormals;
+    for (std::size_t t = 0; t < shape.triangles.size(); t += 3) {
+      const Vec3 a = vertex(shape.triangles[t]), b = vertex(shape.triangles[t + 1]), c = vertex(shape.triangles[t + 2]);
+      Vec3 normal = kernels::cross(b - a, c - a);
+      normal = normal / kernels::norm(normal);
+      for (int e = 0; e < 3; ++e) {
+        int u = shape.triangles[t + e], w = shape.triangles[t + (e + 1) % 3];
+        edgeNormals[{std::min(u, w), std::max(u, w)}].push_back(normal);
+      }
     }
-    props.mass = shape.density * props.dilatedVolume;
-    props.centroid = {centroid.x, centroid.y, centroid.z};
-    const Quat toGiven = quaternionFromMatrix(axes);
-    props.principalToGiven = {toGiven.w, toGiven.x, toGiven.y, toGiven.z};
-    ShapeTemplate principalTemplate = shape;
-    double circumradius = 0.0;
-    for (std::size_t k = 0; k < vertexCount; ++k) {
-        const Vec3 local = rotateInverse(toGiven, vertex(k) - centroid);
-        principalTemplate.vertices[3 * k] = local.x;
-        principalTemplate.vertices[3 * k + 1] = local.y;
-        principalTemplate.vertices[3 * k + 2] = local.z;
-        circumradius = std::max(circumradius, kernels::norm(local));
+    double meanCurvatureIntegral = 0.0;
+    for (const auto& [edge, normals] : edgeNormals) {
+      if (normals.size() != 2)
+        fail("addShape",
+             "the core triangulation is not closed (an edge has " + std::to_string(normals.size()) + " triangles)");
+      const double angle = std::acos(std::clamp(kernels::dot(normals[0], normals[1]), -1.0, 1.0));
+      meanCurvatureIntegral += 0.5 * kernels::norm(vertex(edge.first) - vertex(edge.second)) * angle;
     }
-    props.circumradius = circumradius + r;
-    for (int k = 0; k < 3; ++k) props.principalInertia[k] = principal[k];
-    ShapeData data{};
-    data.firstVertex = static_cast<int>(m.data.shapeVertices.size() / 3);
-    data.vertexCount = static_cast<int>(vertexCount);
-    data.dilationRadius = r;
-    data.boundingRadius = props.circumradius;
-    data.mass = props.mass;
-    for (int k = 0; k < 3; ++k) data.inertia[k] = principal[k];
-    m.data.shapeVertices.insert(m.data.shapeVertices.end(), principalTemplate.vertices.begin(), principalTemplate.vertices.end());
-    m.data.shapes.push_back(data);
-    m.properties.push_back(props);
-    m.templates.push_back(principalTemplate);
-    return static_cast<int>(m.data.shapes.size() - 1);
+    props.dilatedVolume = volume + area * r + meanCurvatureIntegral * r * r + sphereVolume;
+    // Inertia of the dilated body approximated by the core scaled to the dilated volume (I ∝ V^{5/3}):
+    // exact for a sphere-like core, within a few % for r_d ≤ 0.1 of the stone size.
+    const double scale = std::pow(props.dilatedVolume / volume, 5.0 / 3.0);
+    for (int k = 0; k < 3; ++k) principal[k] *= shape.density * scale;
+  } else {
+    if (vertexCount != 1) fail("addShape", "a core with several vertices needs its triangles (for mass and inertia)");
+    centroid = vertex(0);
+    props.dilatedVolume = sphereVolume;
+    for (int k = 0; k < 3; ++k) principal[k] = 0.4 * shape.density * sphereVolume * r * r;
+  }
+  props.mass = shape.density * props.dilatedVolume;
+  props.centroid = {centroid.x, centroid.y, centroid.z};
+  const Quat toGiven = quaternionFromMatrix(axes);
+  props.principalToGiven = {toGiven.w, toGiven.x, toGiven.y, toGiven.z};
+  ShapeTemplate principalTemplate = shape;
+  double circumradius = 0.0;
+  for (std::size_t k = 0; k < vertexCount; ++k) {
+    const Vec3 local = rotateInverse(toGiven, vertex(k) - centroid);
+    principalTemplate.vertices[3 * k] = local.x;
+    principalTemplate.vertices[3 * k + 1] = local.y;
+    principalTemplate.vertices[3 * k + 2] = local.z;
+    circumradius = std::max(circumradius, kernels::norm(local));
+  }
+  props.circumradius = circumradius + r;
+  for (int k = 0; k < 3; ++k) props.principalInertia[k] = principal[k];
+  ShapeData data{};
+  data.firstVertex = static_cast<int>(m.data.shapeVertices.size() / 3);
+  data.vertexCount = static_cast<int>(vertexCount);
+  data.dilationRadius = r;
+  data.boundingRadius = props.circumradius;
+  data.mass = props.mass;
+  for (int k = 0; k < 3; ++k) data.inertia[k] = principal[k];
+  m.data.shapeVertices.insert(m.data.shapeVertices.end(), principalTemplate.vertices.begin(),
+                              principalTemplate.vertices.end());
+  m.data.shapes.push_back(data);
+  m.properties.push_back(props);
+  m.templates.push_back(principalTemplate);
+  return static_cast<int>(m.data.shapes.size() - 1);
 }
 
 const ShapeProperties& PolyhedraSystem::shapeProperties(int shape) const {
-    if (shape < 0 || static_cast<std::size_t>(shape) >= implementation_->properties.size())
-        fail("shapeProperties", "no shape with index " + std::to_string(shape));
-    return implementation_->properties[shape];
+  if (shape < 0 || static_cast<std::size_t>(shape) >= implementation_->properties.size())
+    fail("shapeProperties", "no shape with index " + std::to_string(shape));
+  return implementation_->properties[shape];
 }
 
-int PolyhedraSystem::addStone(int shape, const std::array<double, 3>& position, const std::array<double, 4>& orientation,
-                              const std::array<double, 3>& velocity, const std::array<double, 3>& angularVelocity) {
-    Implementation& m = *implementation_;
-    if (m.started) fail("addStone", "stones must be added before the first step");
-    if (shape < 0 || static_cast<std::size_t>(shape) >= m.data.shapes.size())
-        fail("addStone", "shape index " + std::to_string(shape) + " does not exist; call addShape first");
-    HostData& d = m.data;
-    checkStoneState("addStone", static_cast<std::size_t>(d.stoneCount), position.data(), orientation.data(), velocity.data(), angularVelocity.data());
-    Quat q = normalized(Quat{orientation[0], orientation[1], orientation[2], orientation[3]});
-    d.position.insert(d.position.end(), position.begin(), position.end());
-    d.velocity.insert(d.velocity.end(), velocity.begin(), velocity.end());
-    const ShapeData& data = d.shapes[shape];
-    d.rotation.push_back(kernels::makeRotationState(q, Vec3{angularVelocity[0], angularVelocity[1], angularVelocity[2]},
-                                                    Vec3{data.inertia[0], data.inertia[1], data.inertia[2]}));
-    d.shape.push_back(shape);
-    ++d.stoneCount;
-    return d.stoneCount - 1;
+int PolyhedraSystem::addStone(int shape, const std::array<double, 3>& position,
+                              const std::array<double, 4>& orientation, const std::array<double, 3>& velocity,
+                              const std::array<double, 3>& angularVelocity) {
+  Implementation& m = *implementation_;
+  if (m.started) fail("addStone", "stones must be added before the first step");
+  if (shape < 0 || static_cast<std::size_t>(shape) >= m.data.shapes.size())
+    fail("addStone", "shape index " + std::to_string(shape) + " does not exist; call addShape first");
+  HostData& d = m.data;
+  checkStoneState("addStone", static_cast<std::size_t>(d.stoneCount), position.data(), orientation.data(),
+                  velocity.data(), angularVelocity.data());
+  Quat q = normalized(Quat{orientation[0], orientation[1], orientation[2], orientation[3]});
+  d.position.insert(d.position.end(), position.begin(), position.end());
+  d.velocity.insert(d.velocity.end(), velocity.begin(), velocity.end());
+  const ShapeData& data = d.shapes[shape];
+  d.rotation.push_back(kernels::makeRotationState(q, Vec3{angularVelocity[0], angularVelocity[1], angularVelocity[2]},
+                                                  Vec3{data.inertia[0], data.inertia[1], data.inertia[2]}));
+  d.shape.push_back(shape);
+  ++d.stoneCount;
+  return d.stoneCount - 1;
 }
 
 void PolyhedraSystem::setWalls(const std::vector<double>& coordinates, const std::vector<std::int32_t>& triangles) {
-    Implementation& m = *implementation_;
-    if (m.started) fail("setWalls", "walls must be set before the first step (then move them with setSurfaceKinematics)");
-    if (coordinates.size() % 3 != 0 || triangles.size() % 3 != 0)
-        fail("setWalls", "coordinates and triangles must hold 3 values per node / triangle");
-    for (std::int32_t k : triangles)
-        if (k < 0 || static_cast<std::size_t>(k) >= coordinates.size() / 3)
-            fail("setWalls", "triangle node index " + std::to_string(k) + " out of range");
-    m.data.nodePosition = coordinates;
-    m.data.nodeVelocity.assign(coordinates.size(), 0.0);
-    m.data.triangles = triangles;
+  Implementation& m = *implementation_;
+  if (m.started) fail("setWalls", "walls must be set before the first step (then move them with setSurfaceKinematics)");
+  if (coordinates.size() % 3 != 0 || triangles.size() % 3 != 0)
+    fail("setWalls", "coordinates and triangles must hold 3 values per node / triangle");
+  for (std::int32_t k : triangles)
+    if (k < 0 || static_cast<std::size_t>(k) >= coordinates.size() / 3)
+      fail("setWalls", "triangle node index " + std::to_string(k) + " out of range");
+  m.data.nodePosition = coordinates;
+  m.data.nodeVelocity.assign(coordinates.size(), 0.0);
+  m.data.triangles = triangles;
 }
 
-void PolyhedraSystem::setSurfaceKinematics(const std::vector<double>& positions, const std::vector<double>& velocities) {
-    Implementation& m = *implementation_;
-    if (positions.size() != m.data.nodePosition.size() || velocities.size() != positions.size())
-        fail("setSurfaceKinematics", "expected " + std::to_string(m.data.nodePosition.size()) + " position and velocity values, got " +
-                                         std::to_string(positions.size()) + " and " + std::to_string(velocities.size()));
-    m.sync();
-    m.data.nodePosition = positions;
-    m.data.nodeVelocity = velocities;
-    if (m.started) m.backend->uploadSurface(m.data);
+void PolyhedraSystem::setSurfaceKinematics(const std::vector<double>& positions,
+                                           const std::vector<double>& velocities) {
+  Implementation& m = *implementation_;
+  if (positions.size() != m.data.nodePosition.size() || velocities.size() != positions.size())
+    fail("setSurfaceKinematics", "expected " + std::to_string(m.data.nodePosition.size()) +
+                                     " position and velocity values, got " + std::to_string(positions.size()) +
+                                     " and " + std::to_string(velocities.size()));
+  m.sync();
+  m.data.nodePosition = positions;
+  m.data.nodeVelocity = velocities;
+  if (m.started) m.backend->uploadSurface(m.data);
 }
 
 void PolyhedraSystem::setTimeStep(double timeStep) {
-    if (!(timeStep > 0.0)) fail("setTimeStep", "timeStep must be > 0 s, got " + std::to_string(timeStep));
-    implementation_->data.timeStep = timeStep;
-    implementation_->parameters.timeStep = timeStep;
-    if (implementation_->started) implementation_->backend->parametersChanged();
+  if (!(timeStep > 0.0)) fail("setTimeStep", "timeStep must be > 0 s, got " + std::to_string(timeStep));
+  implementation_->data.timeStep = timeStep;
+  implementation_->parameters.timeStep = timeStep;
+  if (implementation_->started) implementation_->backend->parametersChanged();
 }
 
 void PolyhedraSystem::setGravity(const std::array<double, 3>& gravity) {
-    implementation_->data.gravity = Vec3{gravity[0], gravity[1], gravity[2]};
-    implementation_->parameters.gravity = gravity;
-    if (implementation_->started) implementation_->backend->parametersChanged();
+  implementation_->data.gravity = Vec3{gravity[0], gravity[1], gravity[2]};
+  implementation_->parameters.gravity = gravity;
+  if (implementation_->started) implementation_->backend->parametersChanged();
 }
 
 void PolyhedraSystem::step(int steps) {
-    Implementation& m = *implementation_;
-    if (steps < 0) fail("step", "steps must be >= 0");
-    HostData& d = m.data;
-    if (!m.started) {
-        if (d.stoneCount == 0) fail("step", "no stones: add stones before stepping");
-        // A contact slot keeps its partner (stone or triangle) in 30 bits.
-        if (d.stoneCount >= partnerLimit || d.triangleCount() >= partnerLimit)
-            fail("step", std::to_string(d.stoneCount) + " stones and " + std::to_string(d.triangleCount()) + " triangles: at most " +
-                             std::to_string(partnerLimit - 1) + " of each");
-        double maxBounding = 0.0, meanDilation = 0.0;
-        for (std::int32_t s : d.shape) {
-            maxBounding = std::max(maxBounding, d.shapes[s].boundingRadius);
-            meanDilation += d.shapes[s].dilationRadius;
-        }
-        meanDilation /= d.stoneCount;
-        // Default skin: a fifth of the dilation radius, the scale on which contacts open and close.
-        d.skin = m.parameters.neighbourSkin >= 0.0 ? m.parameters.neighbourSkin : 0.2 * meanDilation;
-        d.cellSize = 2.0 * maxBounding + d.skin;
-        m.storeInSpatialOrder();
-        try {
-            d.allocate();
-            m.backend->upload(d);
-        } catch (...) {
-            m.restoreUserOrder();
-            throw;
-        }
-        m.started = true;
+  Implementation& m = *implementation_;
+  if (steps < 0) fail("step", "steps must be >= 0");
+  HostData& d = m.data;
+  if (!m.started) {
+    if (d.stoneCount == 0) fail("step", "no stones: add stones before stepping");
+    // A contact slot keeps its partner (stone or triangle) in 30 bits.
+    if (d.stoneCount >= partnerLimit || d.triangleCount() >= partnerLimit)
+      fail("step", std::to_string(d.stoneCount) + " stones and " + std::to_string(d.triangleCount()) +
+                       " triangles: at most " + std::to_string(partnerLimit - 1) + " of each");
+    double maxBounding = 0.0, meanDilation = 0.0;
+    for (std::int32_t s : d.shape) {
+      maxBounding = std::max(maxBounding, d.shapes[s].boundingRadius);
+      meanDilation += d.shapes[s].dilationRadius;
     }
-    if (steps == 0) return;
-    // No download here: the CPU backend's arrays are the host arrays, the CUDA backend's state stays on the device.
-    BackendCounters counters;
-    m.backend->step(d, steps, counters);
-    m.hostCurrent = m.active == Backend::Cpu;
-    if (counters.values[counterPairOverflow] > 0 || counters.values[counterWallOverflow] > 0) {
-        std::ostringstream message;
-        message << "neighbour list overflow: a stone had " << counters.values[counterPairOverflow] << " stone candidates (maxNeighbours = "
-                << d.maxPairs << ") or " << counters.values[counterWallOverflow] << " wall candidates (maxWallNeighbours = " << d.maxWalls
-                << "); contacts were lost, the state is invalid. Raise the limit or lower neighbourSkin";
-        fail("step", message.str());
+    meanDilation /= d.stoneCount;
+    // Default skin: a fifth of the dilation radius, the scale on which contacts open and close.
+    d.skin = m.parameters.neighbourSkin >= 0.0 ? m.parameters.neighbourSkin : 0.2 * meanDilation;
+    d.cellSize = 2.0 * maxBounding + d.skin;
+    m.storeInSpatialOrder();
+    try {
+      d.allocate();
+      m.backend->upload(d);
+    } catch (...) {
+      m.restoreUserOrder();
+      throw;
     }
-    m.statistics = StepStatistics{};
-    m.statistics.steps = steps;
-    m.statistics.neighbourRebuilds = counters.rebuilds;
-    m.statistics.dangerousRebuilds = static_cast<std::int64_t>(counters.values[counterDangerous]);
-    m.statistics.coreOverlapFallbacks = static_cast<std::int64_t>(counters.values[counterCoreOverlap]);
-    m.statistics.meanActiveContacts = static_cast<double>(counters.values[counterActive]) / steps;
-    if (m.statistics.dangerousRebuilds > 0 && !m.warnedDangerous) {
-        m.warnedDangerous = true;  // once per system: a long run must not flood the log
-        log(LogLevel::Warning, "polyhedra: a stone moved more than half the neighbour skin (" + std::to_string(d.skin) +
-                                   " m) between list rebuilds; contacts may have been missed. Raise neighbourSkin or lower rebuildInterval "
-                                   "(said once; StepStatistics::dangerousRebuilds counts every call)");
-    }
-    m.lastSteps = steps;
-    m.time += steps * d.timeStep;
+    m.started = true;
+  }
+  if (steps == 0) return;
+  // No download here: the CPU backend's arrays are the host arrays, the CUDA backend's state stays on the device.
+  BackendCounters counters;
+  m.backend->step(d, steps, counters);
+  m.hostCurrent = m.active == Backend::Cpu;
+  if (counters.values[counterPairOverflow] > 0 || counters.values[counterWallOverflow] > 0) {
+    std::ostringstream message;
+    message << "neighbour list overflow: a stone had " << counters.values[counterPairOverflow]
+            << " stone candidates (maxNeighbours = " << d.maxPairs << ") or " << counters.values[counterWallOverflow]
+            << " wall candidates (maxWallNeighbours = " << d.maxWalls
+            << "); contacts were lost, the state is invalid. Raise the limit or lower neighbourSkin";
+    fail("step", message.str());
+  }
+  m.statistics = StepStatistics{};
+  m.statistics.steps = steps;
+  m.statistics.neighbourRebuilds = counters.rebuilds;
+  m.statistics.dangerousRebuilds = static_cast<std::int64_t>(counters.values[counterDangerous]);
+  m.statistics.coreOverlapFallbacks = static_cast<std::int64_t>(counters.values[counterCoreOverlap]);
+  m.statistics.meanActiveContacts = static_cast<double>(counters.values[counterActive]) / steps;
+  if (m.statistics.dangerousRebuilds > 0 && !m.warnedDangerous) {
+    m.warnedDangerous = true; // once per system: a long run must not flood the log
+    log(LogLevel::Warning,
+        "polyhedra: a stone moved more than half the neighbour skin (" + std::to_string(d.skin) +
+            " m) between list rebuilds; contacts may have been missed. Raise neighbourSkin or lower rebuildInterval "
+            "(said once; StepStatistics::dangerousRebuilds counts every call)");
+  }
+  m.lastSteps = steps;
+  m.time += steps * d.timeStep;
 }
 
 std::size_t PolyhedraSystem::stoneCount() const { return static_cast<std::size_t>(implementation_->data.stoneCount); }
-std::size_t PolyhedraSystem::triangleCount() const { return static_cast<std::size_t>(implementation_->data.triangleCount()); }
+std::size_t PolyhedraSystem::triangleCount() const {
+  return static_cast<std::size_t>(implementation_->data.triangleCount());
+}
 double PolyhedraSystem::time() const { return implementation_->time; }
 Backend PolyhedraSystem::activeBackend() const { return implementation_->active; }
 const std::string& PolyhedraSystem::backendReason() const { return implementation_->reason; }
 const StepStatistics& PolyhedraSystem::lastStatistics() const { return implementation_->statistics; }
 
 std::vector<double> PolyhedraSystem::positions() const {
-    implementation_->sync();
-    return implementation_->inUserOrder(implementation_->data.position, 3);
+  implementation_->sync();
+  return implementation_->inUserOrder(implementation_->data.position, 3);
 }
 std::vector<double> PolyhedraSystem::velocities() const {
-    implementation_->sync();
-    return implementation_->inUserOrder(implementation_->data.velocity, 3);
+  implementation_->sync();
+  return implementation_->inUserOrder(implementation_->data.velocity, 3);
 }
 std::vector<double> PolyhedraSystem::orientations() const {
-    Implementation& m = *implementation_;
-    m.sync();
-    std::vector<double> result(4 * m.data.rotation.size());
-    for (std::size_t i = 0; i < m.data.rotation.size(); ++i) {
-        const Quat& q = m.data.rotation[m.stored(i)].orientation;
-        result[4 * i] = q.w, result[4 * i + 1] = q.x, result[4 * i + 2] = q.y, result[4 * i + 3] = q.z;
-    }
-    return result;
+  Implementation& m = *implementation_;
+  m.sync();
+  std::vector<double> result(4 * m.data.rotation.size());
+  for (std::size_t i = 0; i < m.data.rotation.size(); ++i) {
+    const Quat& q = m.data.rotation[m.stored(i)].orientation;
+    result[4 * i] = q.w, result[4 * i + 1] = q.x, result[4 * i + 2] = q.y, result[4 * i + 3] = q.z;
+  }
+  return result;
 }
 std::vector<double> PolyhedraSystem::angularVelocities() const {
-    Implementation& m = *implementation_;
-    m.sync();
-    std::vector<double> result(3 * m.data.rotation.size());
-    for (std::size_t i = 0; i < m.data.rotation.size(); ++i) {
-        const Vec3& w = m.data.rotation[m.stored(i)].angularVelocity;
-        result[3 * i] = w.x, result[3 * i + 1] = w.y, result[3 * i + 2] = w.z;
-    }
-    return result;
+  Implementation& m = *implementation_;
+  m.sync();
+  std::vector<double> result(3 * m.data.rotation.size());
+  for (std::size_t i = 0; i < m.data.rotation.size(); ++i) {
+    const Vec3& w = m.data.rotation[m.stored(i)].angularVelocity;
+    result[3 * i] = w.x, result[3 * i + 1] = w.y, result[3 * i + 2] = w.z;
+  }
+  return result;
 }
 std::vector<double> PolyhedraSystem::forces() const {
-    implementation_->sync();
-    return implementation_->inUserOrder(implementation_->data.force, 3);
+  implementation_->sync();
+  return implementation_->inUserOrder(implementation_->data.force, 3);
 }
 std::vector<double> PolyhedraSystem::torques() const {
-    implementation_->sync();
-    return implementation_->inUserOrder(implementation_->data.torque, 3);
+  implementation_->sync();
+  return implementation_->inUserOrder(implementation_->data.torque, 3);
 }
 
 void PolyhedraSystem::setState(const std::vector<double>& positions, const std::vector<double>& orientations,
                                const std::vector<double>& velocities, const std::vector<double>& angularVelocities) {
-    Implementation& m = *implementation_;
-    HostData& d = m.data;
-    const std::size_t n = static_cast<std::size_t>(d.stoneCount);
-    if (positions.size() != 3 * n || orientations.size() != 4 * n || velocities.size() != 3 * n || angularVelocities.size() != 3 * n)
-        fail("setState", "expected 3/4/3/3 values per stone for " + std::to_string(n) + " stones");
-    // Checked before anything changes: a refused call leaves the state as it was.
-    for (std::size_t i = 0; i < n; ++i)
-        checkStoneState("setState", i, &positions[3 * i], &orientations[4 * i], &velocities[3 * i], &angularVelocities[3 * i]);
-    m.sync();
-    for (std::size_t i = 0; i < n; ++i) {  // i: the user's index
-        const std::size_t k = m.stored(i);
-        for (std::size_t c = 0; c < 3; ++c) {
-            d.position[3 * k + c] = positions[3 * i + c];
-            d.velocity[3 * k + c] = velocities[3 * i + c];
-        }
-        const Quat q{orientations[4 * i], orientations[4 * i + 1], orientations[4 * i + 2], orientations[4 * i + 3]};
-        const ShapeData& data = d.shapes[d.shape[k]];
-        d.rotation[k] = kernels::makeRotationState(q, load3(angularVelocities.data(), static_cast<int>(i)),
-                                                   Vec3{data.inertia[0], data.inertia[1], data.inertia[2]});
+  Implementation& m = *implementation_;
+  HostData& d = m.data;
+  const std::size_t n = static_cast<std::size_t>(d.stoneCount);
+  if (positions.size() != 3 * n || orientations.size() != 4 * n || velocities.size() != 3 * n ||
+      angularVelocities.size() != 3 * n)
+    fail("setState", "expected 3/4/3/3 values per stone for " + std::to_string(n) + " stones");
+  // Checked before anything changes: a refused call leaves the state as it was.
+  for (std::size_t i = 0; i < n; ++i)
+    checkStoneState("setState", i, &positions[3 * i], &orientations[4 * i], &velocities[3 * i],
+                    &angularVelocities[3 * i]);
+  m.sync();
+  for (std::size_t i = 0; i < n; ++i) { // i: the user's index
+    const std::size_t k = m.stored(i);
+    for (std::size_t c = 0; c < 3; ++c) {
+      d.position[3 * k + c] = positions[3 * i + c];
+      d.velocity[3 * k + c] = velocities[3 * i + c];
     }
-    d.forcesValid = false;
-    if (m.started) m.backend->upload(d);
+    const Quat q{orientations[4 * i], orientations[4 * i + 1], orientations[4 * i + 2], orientations[4 * i + 3]};
+    const ShapeData& data = d.shapes[d.shape[k]];
+    d.rotation[k] = kernels::makeRotationState(q, load3(angularVelocities.data(), static_cast<int>(i)),
+                                               Vec3{data.inertia[0], data.inertia[1], data.inertia[2]});
+  }
+  d.forcesValid = false;
+  if (m.started) m.backend->upload(d);
 }
 
 std::vector<double> PolyhedraSystem::triangleForces() const {
-    Implementation& m = *implementation_;
-    m.sync();
-    std::vector<double> result(m.data.triangleForceSum.size(), 0.0);
-    if (m.lastSteps > 0)
-        for (std::size_t k = 0; k < result.size(); ++k) result[k] = m.data.triangleForceSum[k] / m.lastSteps;
-    return result;
+  Implementation& m = *implementation_;
+  m.sync();
+  std::vector<double> result(m.data.triangleForceSum.size(), 0.0);
+  if (m.lastSteps > 0)
+    for (std::size_t k = 0; k < result.size(); ++k) result[k] = m.data.triangleForceSum[k] / m.lastSteps;
+  return result;
 }
 
 std::vector<double> PolyhedraSystem::triangleContactPoints() const {
-    Implementation& m = *implementation_;
-    m.sync();
-    const HostData& d = m.data;
-    const int t = d.triangleCount();
-    std::vector<double> result(3 * static_cast<std::size_t>(t), 0.0);
-    for (int k = 0; k < t; ++k) {
-        const double w = k < static_cast<int>(d.triangleWeightSum.size()) ? d.triangleWeightSum[k] : 0.0;
-        for (int c = 0; c < 3; ++c) {
-            if (w > 0.0) {
-                result[3 * k + c] = d.trianglePointSum[3 * k + c] / w;
-            } else {
-                result[3 * k + c] = (d.nodePosition[3 * d.triangles[3 * k] + c] + d.nodePosition[3 * d.triangles[3 * k + 1] + c] +
-                                     d.nodePosition[3 * d.triangles[3 * k + 2] + c]) / 3.0;
-            }
-        }
+  Implementation& m = *implementation_;
+  m.sync();
+  const HostData& d = m.data;
+  const int t = d.triangleCount();
+  std::vector<double> result(3 * static_cast<std::size_t>(t), 0.0);
+  for (int k = 0; k < t; ++k) {
+    const double w = k < static_cast<int>(d.triangleWeightSum.size()) ? d.triangleWeightSum[k] : 0.0;
+    for (int c = 0; c < 3; ++c) {
+      if (w > 0.0) {
+        result[3 * k + c] = d.trianglePointSum[3 * k + c] / w;
+      } else {
+        result[3 * k + c] =
+            (d.nodePosition[3 * d.triangles[3 * k] + c] + d.nodePosition[3 * d.triangles[3 * k + 1] + c] +
+             d.nodePosition[3 * d.triangles[3 * k + 2] + c]) /
+            3.0;
+      }
     }
-    return result;
+  }
+  return result;
 }
 
 std::vector<ContactRecord> PolyhedraSystem::contacts() const {
-    Implementation& m = *implementation_;
-    m.sync();
-    const HostData& d = m.data;
-    std::vector<ContactRecord> result;
-    if (!m.started) return result;
-    for (int i = 0; i < d.stoneCount; ++i) {
-        for (int k = 0; k < d.pairCount[i]; ++k) {
-            const std::size_t index = static_cast<std::size_t>(i) * d.maxPairs + k;
-            const ContactSlot& slot = d.pairSlots[index];
-            if (slot.active != 1) continue;
-            ContactRecord r;
-            r.first = static_cast<std::int32_t>(m.user(i));
-            r.second = static_cast<std::int32_t>(m.user(slot.partner));
-            r.overlap = slot.overlap;
-            for (int c = 0; c < 3; ++c) {
-                r.normal[c] = slot.normal[c];
-                r.point[c] = d.pairOutput[index].point[c];
-                r.force[c] = d.pairOutput[index].force[c];
-            }
-            result.push_back(r);
-        }
-        for (int k = 0; k < d.wallCount[i]; ++k) {
-            const std::size_t index = static_cast<std::size_t>(i) * d.maxWalls + k;
-            const ContactSlot& slot = d.wallSlots[index];
-            if (slot.active != 1) continue;
-            ContactRecord r;
-            r.first = static_cast<std::int32_t>(m.user(i));
-            r.second = slot.partner;
-            r.wall = true;
-            r.overlap = slot.overlap;
-            for (int c = 0; c < 3; ++c) {
-                r.normal[c] = slot.normal[c];
-                r.point[c] = d.wallOutput[index].point[c];
-                r.force[c] = d.wallOutput[index].force[c];
-            }
-            result.push_back(r);
-        }
+  Implementation& m = *implementation_;
+  m.sync();
+  const HostData& d = m.data;
+  std::vector<ContactRecord> result;
+  if (!m.started) return result;
+  for (int i = 0; i < d.stoneCount; ++i) {
+    for (int k = 0; k < d.pairCount[i]; ++k) {
+      const std::size_t index = static_cast<std::size_t>(i) * d.maxPairs + k;
+      const ContactSlot& slot = d.pairSlots[index];
+      if (slot.active != 1) continue;
+      ContactRecord r;
+      r.first = static_cast<std::int32_t>(m.user(i));
+      r.second = static_cast<std::int32_t>(m.user(slot.partner));
+      r.overlap = slot.overlap;
+      for (int c = 0; c < 3; ++c) {
+        r.normal[c] = slot.normal[c];
+        r.point[c] = d.pairOutput[index].point[c];
+        r.force[c] = d.pairOutput[index].force[c];
+      }
+      result.push_back(r);
     }
-    return result;
+    for (int k = 0; k < d.wallCount[i]; ++k) {
+      const std::size_t index = static_cast<std::size_t>(i) * d.maxWalls + k;
+      const ContactSlot& slot = d.wallSlots[index];
+      if (slot.active != 1) continue;
+      ContactRecord r;
+      r.first = static_cast<std::int32_t>(m.user(i));
+      r.second = slot.partner;
+      r.wall = true;
+      r.overlap = slot.overlap;
+      for (int c = 0; c < 3; ++c) {
+        r.normal[c] = slot.normal[c];
+        r.point[c] = d.wallOutput[index].point[c];
+        r.force[c] = d.wallOutput[index].force[c];
+      }
+      result.push_back(r);
+    }
+  }
+  return result;
 }
 
-}  // namespace railcosim::polyhedra
+} // namespace railcosim::polyhedra

@@ -12,76 +12,76 @@ namespace railcosim::polyhedra {
 /// A convex core polyhedron shared by every stone of one shape (a "shape template"). The stone is the
 /// Minkowski sum of the core and a sphere of radius `dilationRadius` (Ullrich 2022 §2.3, eq. 2.4).
 struct ShapeTemplate {
-    std::vector<double> vertices;          ///< core vertices, 3 per vertex, any body frame [m]
-    std::vector<std::int32_t> triangles;   ///< core surface, 3 vertex indices each, outward (CCW) [-]
-    double dilationRadius = 0.0;           ///< r_d [m], > 0
-    double density = 2600.0;               ///< [kg/m^3]
+  std::vector<double> vertices;        ///< core vertices, 3 per vertex, any body frame [m]
+  std::vector<std::int32_t> triangles; ///< core surface, 3 vertex indices each, outward (CCW) [-]
+  double dilationRadius = 0.0;         ///< r_d [m], > 0
+  double density = 2600.0;             ///< [kg/m^3]
 };
 
 /// Mass properties the library derived for a template (core moved to its centroid, principal axes).
 struct ShapeProperties {
-    double mass = 0.0;                            ///< of the dilated body [kg]
-    std::array<double, 3> principalInertia{};     ///< [kg m^2]
-    double circumradius = 0.0;                    ///< core circumradius about the centroid + r_d [m]
-    double dilatedVolume = 0.0;                   ///< Steiner formula [m^3]
-    /// Rotation (w,x,y,z) from the principal frame to the frame the template was given in, and the
-    /// centroid in that frame: vertex_given = centroid + rotate(principalToGiven, vertex_principal).
-    std::array<double, 4> principalToGiven{1.0, 0.0, 0.0, 0.0};
-    std::array<double, 3> centroid{};
+  double mass = 0.0;                        ///< of the dilated body [kg]
+  std::array<double, 3> principalInertia{}; ///< [kg m^2]
+  double circumradius = 0.0;                ///< core circumradius about the centroid + r_d [m]
+  double dilatedVolume = 0.0;               ///< Steiner formula [m^3]
+  /// Rotation (w,x,y,z) from the principal frame to the frame the template was given in, and the
+  /// centroid in that frame: vertex_given = centroid + rotate(principalToGiven, vertex_principal).
+  std::array<double, 4> principalToGiven{1.0, 0.0, 0.0, 0.0};
+  std::array<double, 3> centroid{};
 };
 
 /// Material of stones and of walls. Hertz–Mindlin with the dilation curvature (Ullrich 2022 eqs. 2.20–2.24),
 /// damping from restitution and Coulomb friction: kernels/HertzMindlin.hpp.
 struct Material {
-    double youngModulus = 1e10;   ///< E [Pa]
-    double poissonRatio = 0.25;   ///< ν [-]
-    double restitution = 0.2;     ///< normal coefficient of restitution e [-]
-    double friction = 0.6;        ///< Coulomb coefficient μ [-]
+  double youngModulus = 1e10; ///< E [Pa]
+  double poissonRatio = 0.25; ///< ν [-]
+  double restitution = 0.2;   ///< normal coefficient of restitution e [-]
+  double friction = 0.6;      ///< Coulomb coefficient μ [-]
 };
 
 enum class Backend { Automatic, Cpu, Cuda };
 
 struct Parameters {
-    double timeStep = 1e-6;                        ///< Δt [s]
-    std::array<double, 3> gravity{0.0, 0.0, -9.81};///< [m/s^2]
-    Material stone;                                ///< stone–stone contacts
-    Material wall;                                 ///< stone–wall/surface contacts (friction, restitution of the pair)
-    double neighbourSkin = -1.0;                   ///< Verlet skin [m]; < 0: 0.2 × mean dilation radius
-    /// Steps between neighbour-list rebuilds [-]. Every `step` call starts with one; with adaptiveRebuild a
-    /// later one is skipped while no stone's displacement since the last rebuild plus its speed × this
-    /// interval reaches half the skin (a settled bed then keeps its lists; a moving surface never skips).
-    int rebuildInterval = 10;
-    bool adaptiveRebuild = true;                   ///< skip rebuilds the lists do not need (see rebuildInterval)
-    int maxNeighbours = 24;                        ///< candidate partners stored per stone (j > i) [-]
-    int maxWallNeighbours = 8;                     ///< candidate triangles stored per stone [-]
-    /// Patch centring, fraction of r_d [-]. 0 (default): the force acts at the closest points of the cores
-    /// (Ullrich 2022: two virtual spheres there), a conservative force field. > 0: vertices within this band of
-    /// the support height form a face and face–face / edge–face contacts act at the centre of the
-    /// overlapping region; more faithful torques for stones resting on faces, but the point jumps when a
-    /// vertex enters the band, which feeds energy into resting piles (measured: residual speeds of
-    /// 2–5 mm/s with 0.02–0.1 instead of < 0.1 mm/s in the settling test).
-    double featureTolerance = 0.0;
-    Backend backend = Backend::Automatic;          ///< Automatic: CUDA if a GPU is usable, else CPU
+  double timeStep = 1e-6;                         ///< Δt [s]
+  std::array<double, 3> gravity{0.0, 0.0, -9.81}; ///< [m/s^2]
+  Material stone;                                 ///< stone–stone contacts
+  Material wall;                                  ///< stone–wall/surface contacts (friction, restitution of the pair)
+  double neighbourSkin = -1.0;                    ///< Verlet skin [m]; < 0: 0.2 × mean dilation radius
+  /// Steps between neighbour-list rebuilds [-]. Every `step` call starts with one; with adaptiveRebuild a
+  /// later one is skipped while no stone's displacement since the last rebuild plus its speed × this
+  /// interval reaches half the skin (a settled bed then keeps its lists; a moving surface never skips).
+  int rebuildInterval = 10;
+  bool adaptiveRebuild = true; ///< skip rebuilds the lists do not need (see rebuildInterval)
+  int maxNeighbours = 24;      ///< candidate partners stored per stone (j > i) [-]
+  int maxWallNeighbours = 8;   ///< candidate triangles stored per stone [-]
+  /// Patch centring, fraction of r_d [-]. 0 (default): the force acts at the closest points of the cores
+  /// (Ullrich 2022: two virtual spheres there), a conservative force field. > 0: vertices within this band of
+  /// the support height form a face and face–face / edge–face contacts act at the centre of the
+  /// overlapping region; more faithful torques for stones resting on faces, but the point jumps when a
+  /// vertex enters the band, which feeds energy into resting piles (measured: residual speeds of
+  /// 2–5 mm/s with 0.02–0.1 instead of < 0.1 mm/s in the settling test).
+  double featureTolerance = 0.0;
+  Backend backend = Backend::Automatic; ///< Automatic: CUDA if a GPU is usable, else CPU
 };
 
 /// One active contact (for checks, output and the comparison between backends).
 struct ContactRecord {
-    std::int32_t first = 0;      ///< stone index
-    std::int32_t second = 0;     ///< stone index, or triangle index for a wall contact
-    bool wall = false;
-    double overlap = 0.0;        ///< δ = r_A + r_B − Δ [m]
-    std::array<double, 3> point{};   ///< contact point [m]
-    std::array<double, 3> normal{};  ///< unit, from first to second
-    std::array<double, 3> force{};   ///< total force on `second` (on the wall for walls) [N]
+  std::int32_t first = 0;  ///< stone index
+  std::int32_t second = 0; ///< stone index, or triangle index for a wall contact
+  bool wall = false;
+  double overlap = 0.0;           ///< δ = r_A + r_B − Δ [m]
+  std::array<double, 3> point{};  ///< contact point [m]
+  std::array<double, 3> normal{}; ///< unit, from first to second
+  std::array<double, 3> force{};  ///< total force on `second` (on the wall for walls) [N]
 };
 
 /// Counters of the last `step` call.
 struct StepStatistics {
-    std::int64_t steps = 0;
-    std::int64_t neighbourRebuilds = 0;
-    std::int64_t dangerousRebuilds = 0;   ///< a stone moved more than skin/2 between rebuilds
-    std::int64_t coreOverlapFallbacks = 0;///< contact evaluations where the cores intersected
-    double meanActiveContacts = 0.0;      ///< stone–stone + stone–wall contacts, mean over the steps
+  std::int64_t steps = 0;
+  std::int64_t neighbourRebuilds = 0;
+  std::int64_t dangerousRebuilds = 0;    ///< a stone moved more than skin/2 between rebuilds
+  std::int64_t coreOverlapFallbacks = 0; ///< contact evaluations where the cores intersected
+  double meanActiveContacts = 0.0;       ///< stone–stone + stone–wall contacts, mean over the steps
 };
 
 /// A bed of dilated polyhedra advanced by velocity Verlet (translation) and the Zhao–van Wachem
@@ -89,72 +89,72 @@ struct StepStatistics {
 /// is copied to the host only by the accessors below.
 class PolyhedraSystem {
 public:
-    explicit PolyhedraSystem(const Parameters& parameters);
-    ~PolyhedraSystem();
-    PolyhedraSystem(const PolyhedraSystem&) = delete;
-    PolyhedraSystem& operator=(const PolyhedraSystem&) = delete;
+  explicit PolyhedraSystem(const Parameters& parameters);
+  ~PolyhedraSystem();
+  PolyhedraSystem(const PolyhedraSystem&) = delete;
+  PolyhedraSystem& operator=(const PolyhedraSystem&) = delete;
 
-    /// Registers a template; returns its index. Throws Error for a degenerate or non-convex core.
-    int addShape(const ShapeTemplate& shape);
-    const ShapeProperties& shapeProperties(int shape) const;
+  /// Registers a template; returns its index. Throws Error for a degenerate or non-convex core.
+  int addShape(const ShapeTemplate& shape);
+  const ShapeProperties& shapeProperties(int shape) const;
 
-    /// Adds a stone whose principal frame is at `position` with orientation (w,x,y,z) `orientation`;
-    /// velocities in the world frame. Returns its index. Stones may be added until the first `step`, which
-    /// stores them in spatial order for speed; every accessor keeps speaking these indices.
-    int addStone(int shape, const std::array<double, 3>& position, const std::array<double, 4>& orientation,
-                 const std::array<double, 3>& velocity = {0, 0, 0},
-                 const std::array<double, 3>& angularVelocity = {0, 0, 0});
+  /// Adds a stone whose principal frame is at `position` with orientation (w,x,y,z) `orientation`;
+  /// velocities in the world frame. Returns its index. Stones may be added until the first `step`, which
+  /// stores them in spatial order for speed; every accessor keeps speaking these indices.
+  int addStone(int shape, const std::array<double, 3>& position, const std::array<double, 4>& orientation,
+               const std::array<double, 3>& velocity = {0, 0, 0},
+               const std::array<double, 3>& angularVelocity = {0, 0, 0});
 
-    /// Fixed triangle walls (e.g. a box): coordinates 3 per node, triangles 3 indices each, CCW seen
-    /// from the stones. Replaces any previous walls (and the moving surface: both share one mesh).
-    void setWalls(const std::vector<double>& coordinates, const std::vector<std::int32_t>& triangles);
-    /// Moving, deforming triangle surface (the FEM interface): call setWalls once for the connectivity,
-    /// then this before each coupling window with node positions and velocities (3 per node). Nodes
-    /// move with that constant velocity during the following `step` call.
-    void setSurfaceKinematics(const std::vector<double>& positions, const std::vector<double>& velocities);
+  /// Fixed triangle walls (e.g. a box): coordinates 3 per node, triangles 3 indices each, CCW seen
+  /// from the stones. Replaces any previous walls (and the moving surface: both share one mesh).
+  void setWalls(const std::vector<double>& coordinates, const std::vector<std::int32_t>& triangles);
+  /// Moving, deforming triangle surface (the FEM interface): call setWalls once for the connectivity,
+  /// then this before each coupling window with node positions and velocities (3 per node). Nodes
+  /// move with that constant velocity during the following `step` call.
+  void setSurfaceKinematics(const std::vector<double>& positions, const std::vector<double>& velocities);
 
-    /// Changes Δt [s] / gravity [m/s^2] for the following steps (e.g. a coarse packing phase, YADE's O.dt).
-    void setTimeStep(double timeStep);
-    void setGravity(const std::array<double, 3>& gravity);
+  /// Changes Δt [s] / gravity [m/s^2] for the following steps (e.g. a coarse packing phase, YADE's O.dt).
+  void setTimeStep(double timeStep);
+  void setGravity(const std::array<double, 3>& gravity);
 
-    /// Advances `steps` time steps. Throws Error if a neighbour list overflowed (raise maxNeighbours).
-    void step(int steps);
+  /// Advances `steps` time steps. Throws Error if a neighbour list overflowed (raise maxNeighbours).
+  void step(int steps);
 
-    std::size_t stoneCount() const;
-    std::size_t triangleCount() const;
-    double time() const;
-    Backend activeBackend() const;
-    /// Why this backend runs (e.g. "no CUDA device: CUDA driver version is insufficient ...").
-    const std::string& backendReason() const;
-    const StepStatistics& lastStatistics() const;
+  std::size_t stoneCount() const;
+  std::size_t triangleCount() const;
+  double time() const;
+  Backend activeBackend() const;
+  /// Why this backend runs (e.g. "no CUDA device: CUDA driver version is insufficient ...").
+  const std::string& backendReason() const;
+  const StepStatistics& lastStatistics() const;
 
-    // State, copied from the device on each call: 3 (or 4 for quaternions w,x,y,z) values per stone.
-    std::vector<double> positions() const;
-    std::vector<double> velocities() const;
-    std::vector<double> orientations() const;
-    std::vector<double> angularVelocities() const;
-    /// Contact forces + torques of the last force evaluation (gravity excluded): 3 per stone.
-    std::vector<double> forces() const;
-    std::vector<double> torques() const;
-    /// Replaces the state of all stones (3 or 4 values per stone as above).
-    void setState(const std::vector<double>& positions, const std::vector<double>& orientations,
-                  const std::vector<double>& velocities, const std::vector<double>& angularVelocities);
+  // State, copied from the device on each call: 3 (or 4 for quaternions w,x,y,z) values per stone.
+  std::vector<double> positions() const;
+  std::vector<double> velocities() const;
+  std::vector<double> orientations() const;
+  std::vector<double> angularVelocities() const;
+  /// Contact forces + torques of the last force evaluation (gravity excluded): 3 per stone.
+  std::vector<double> forces() const;
+  std::vector<double> torques() const;
+  /// Replaces the state of all stones (3 or 4 values per stone as above).
+  void setState(const std::vector<double>& positions, const std::vector<double>& orientations,
+                const std::vector<double>& velocities, const std::vector<double>& angularVelocities);
 
-    /// Mean force on each triangle over the steps of the last `step` call (3 per triangle, N) and the
-    /// force-weighted mean contact point (3 per triangle, m; the triangle centroid when unloaded).
-    std::vector<double> triangleForces() const;
-    std::vector<double> triangleContactPoints() const;
+  /// Mean force on each triangle over the steps of the last `step` call (3 per triangle, N) and the
+  /// force-weighted mean contact point (3 per triangle, m; the triangle centroid when unloaded).
+  std::vector<double> triangleForces() const;
+  std::vector<double> triangleContactPoints() const;
 
-    /// Active contacts at the last force evaluation of the last `step` call, in no particular order; `first`
-    /// and `second` are addStone indices (`first` may be the larger one).
-    std::vector<ContactRecord> contacts() const;
+  /// Active contacts at the last force evaluation of the last `step` call, in no particular order; `first`
+  /// and `second` are addStone indices (`first` may be the larger one).
+  std::vector<ContactRecord> contacts() const;
 
-    struct Implementation;
+  struct Implementation;
 
 private:
-    std::unique_ptr<Implementation> implementation_;
+  std::unique_ptr<Implementation> implementation_;
 };
 
 const char* backendName(Backend backend);
 
-}  // namespace railcosim::polyhedra
+} // namespace railcosim::polyhedra

@@ -15,9 +15,9 @@ class FemParticipant;
 
 /// The schemes of Ullrich 2022 (Sec. 3.4) and the implicit window iteration (docs/coupling-schemes.md).
 enum class CouplingScheme {
-  JustInTime,  // DEM first; surface P + V*tau + A*tau^2/2 from the kinematics received at t_i (Ullrich 2022, Alg. 3)
-  Predictive,  // FEM first; surface moves linearly from P(t_i) to P(t_i+1): V = (P1-P0)/dt_F, A = 0 (eq. 3.4-3.7)
-  Implicit,    // DEM first, window repeated until the FEM end state agrees with the DEM's (ImplicitCoupling.hpp)
+  JustInTime, // DEM first; surface P + V*tau + A*tau^2/2 from the kinematics received at t_i (Ullrich 2022, Alg. 3)
+  Predictive, // FEM first; surface moves linearly from P(t_i) to P(t_i+1): V = (P1-P0)/dt_F, A = 0 (eq. 3.4-3.7)
+  Implicit,   // DEM first, window repeated until the FEM end state agrees with the DEM's (ImplicitCoupling.hpp)
 };
 
 /// "justInTime" | "predictive" | "implicit" (case-insensitive, also "just-in-time"); throws Error otherwise.
@@ -29,37 +29,37 @@ std::string knownCouplingSchemes();
 
 /// Settings of the window iteration (serial, DEM first; Aitken relaxation of the interface positions).
 struct ImplicitSettings {
-  double tolerance = 1e-3;          // relative: converged when rms|r| <= tolerance * rms|P_end - P_0| + absoluteTolerance
+  double tolerance = 1e-3; // relative: converged when rms|r| <= tolerance * rms|P_end - P_0| + absoluteTolerance
   double absoluteTolerance = 1e-14; // m, rms over the interface values; floor for a surface that has hardly moved
   int maxIterations = 30;           // passes per window; the last one is accepted and counted as not converged
   double relaxation = 0.5;          // ω of the first window's first correction (of every pass without Aitken; with
-                                    // Aitken, later windows start from the previous window's last ω if it lies in (0, 1])
-  bool aitken = true;               // dynamic Aitken ω (Irons & Tuck; Küttler & Wall 2008)
-  void validate() const;            // throws Error naming the bad setting
+                           // Aitken, later windows start from the previous window's last ω if it lies in (0, 1])
+  bool aitken = true;    // dynamic Aitken ω (Irons & Tuck; Küttler & Wall 2008)
+  void validate() const; // throws Error naming the bad setting
 };
 
 /// A scheme and the settings of those schemes that have any.
 struct SchemeSettings {
   CouplingScheme scheme = CouplingScheme::JustInTime;
-  ImplicitSettings implicit;        // read by the implicit scheme only
-  void validate() const;            // throws Error naming the bad setting
+  ImplicitSettings implicit; // read by the implicit scheme only
+  void validate() const;     // throws Error naming the bad setting
 };
 
 /// How one window ended on the DEM side.
 struct WindowResult {
-  bool repeat = false;     // restore the checkpoint written at the window start and simulate the window again
-  bool converged = true;   // false: accepted after the scheme's last allowed pass without meeting its tolerance
-  double femWork = 0.0;    // accepted window: sum of F_sent . (P_end - P_start) over the FEM step those forces drove [J]
+  bool repeat = false;   // restore the checkpoint written at the window start and simulate the window again
+  bool converged = true; // false: accepted after the scheme's last allowed pass without meeting its tolerance
+  double femWork = 0.0;  // accepted window: sum of F_sent . (P_end - P_start) over the FEM step those forces drove [J]
 };
 
 /// Window iteration figures (zero for schemes that never repeat a window).
 struct WindowIterationStatistics {
-  long passes = 0;              // DEM passes over all windows (a window accepted at once counts 1)
-  long lastWindowPasses = 0;    // passes of the last accepted window
-  long maxWindowPasses = 0;     // most passes any window needed
-  long unconvergedWindows = 0;  // windows accepted without meeting the tolerance
-  double lastResidual = 0.0;    // rms position residual of the last judged pass [m]
-  double lastLimit = 0.0;       // the rms residual that pass had to reach [m]
+  long passes = 0;             // DEM passes over all windows (a window accepted at once counts 1)
+  long lastWindowPasses = 0;   // passes of the last accepted window
+  long maxWindowPasses = 0;    // most passes any window needed
+  long unconvergedWindows = 0; // windows accepted without meeting the tolerance
+  double lastResidual = 0.0;   // rms position residual of the last judged pass [m]
+  double lastLimit = 0.0;      // the rms residual that pass had to reach [m]
 };
 
 /// DEM side of a coupling scheme. The DEM solver simulates one window at a time and asks the scheme
@@ -87,8 +87,8 @@ public:
   /// receives the FEM's answer and judges it. `surfaceTouched`: whether any particle touched the surface
   /// during the window (a window without contact cannot depend on where the surface was assumed).
   WindowResult completeWindow(const std::vector<double>& forces, double time, bool surfaceTouched);
-  std::uint64_t window() const { return window_; }          // index of the window being simulated
-  virtual std::uint32_t iteration() const { return 0; }     // pass over it (0 = first)
+  std::uint64_t window() const { return window_; }      // index of the window being simulated
+  virtual std::uint32_t iteration() const { return 0; } // pass over it (0 = first)
   /// FEM steps between the forces of window i and the step they drive (predictive: 1; the FEM's first
   /// step runs before any DEM force is known).
   virtual std::uint64_t forcesLag() const { return 0; }
@@ -106,8 +106,8 @@ protected:
   static double work(const std::vector<double>& forces, const NodalKinematics& from, const NodalKinematics& to);
 
   DemParticipant& participant_;
-  double windowLength_;             // s, the FEM time step
-  NodalKinematics windowStart_;     // surface motion of the current window: P + V tau + A tau^2/2
+  double windowLength_;         // s, the FEM time step
+  NodalKinematics windowStart_; // surface motion of the current window: P + V tau + A tau^2/2
   NodalKinematics lastReceived_;
   bool checkpointDue_ = false;
   WindowIterationStatistics iterationStatistics_;
@@ -137,15 +137,15 @@ public:
   /// Waits, if the scheme orders it, for the nodal forces [N] that load the next step (3 per node).
   /// false once the DEM side has ended the run (forces untouched).
   virtual bool beginStep(std::vector<double>& forces) = 0;
-  bool requiresWritingCheckpoint() const { return writeCheckpoint_; }  // save the solver state before solving
-  bool requiresReadingCheckpoint() const { return readCheckpoint_; }   // restore it before solving
+  bool requiresWritingCheckpoint() const { return writeCheckpoint_; } // save the solver state before solving
+  bool requiresReadingCheckpoint() const { return readCheckpoint_; }  // restore it before solving
   /// Sends the interface kinematics at the end of the step just solved.
   virtual void endStep(const NodalKinematics& end) = 0;
   /// Whether a solved step became final since the last call (then record it once).
   bool takeAcceptedStep();
-  std::uint64_t window() const { return window_; }                  // window of the step being solved
+  std::uint64_t window() const { return window_; }                   // window of the step being solved
   std::uint64_t windowsReceived() const { return windowsReceived_; } // windows the DEM side sent forces for
-  double forcesTime() const { return forcesTime_; }                 // time stamp of the forces received last [s]
+  double forcesTime() const { return forcesTime_; }                  // time stamp of the forces received last [s]
   std::uint32_t forcesIteration() const { return forcesIteration_; } // pass of the forces received last
 
 protected:

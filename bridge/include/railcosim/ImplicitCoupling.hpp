@@ -34,20 +34,20 @@ public:
   /// surfaceTouched: whether any particle touched the surface during the pass.
   Outcome judge(const NodalKinematics& femEnd, bool surfaceTouched);
 
-  std::uint32_t iteration() const { return iteration_; }       // pass k of the current window (0 = first)
-  double residualNorm() const { return residualNorm_; }        // rms|r_k| of the last judged pass [m]
-  double convergenceLimit() const { return limit_; }           // the rms|r| it had to reach [m]
-  double relaxation() const { return omega_; }                 // ω applied after the last judged pass
+  std::uint32_t iteration() const { return iteration_; } // pass k of the current window (0 = first)
+  double residualNorm() const { return residualNorm_; }  // rms|r_k| of the last judged pass [m]
+  double convergenceLimit() const { return limit_; }     // the rms|r| it had to reach [m]
+  double relaxation() const { return omega_; }           // ω applied after the last judged pass
   const ImplicitSettings& settings() const { return settings_; }
 
 private:
   void setSurface();
 
   ImplicitSettings settings_;
-  std::vector<double> reference_;   // P_0, mesh coordinates at t = 0
+  std::vector<double> reference_; // P_0, mesh coordinates at t = 0
   double windowLength_;
-  NodalKinematics accepted_;        // state at t_i
-  std::vector<double> assumed_;     // P~_k
+  NodalKinematics accepted_;    // state at t_i
+  std::vector<double> assumed_; // P~_k
   std::vector<double> residual_, previousResidual_;
   NodalKinematics surfaceStart_;
   std::uint32_t iteration_ = 0;

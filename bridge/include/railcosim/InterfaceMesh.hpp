@@ -12,8 +12,8 @@ namespace railcosim {
 /// triangles as 3 zero-based node indices each, counter-clockwise seen from outside the structure
 /// (so the right-hand normal points out of the solid, towards the particles).
 struct InterfaceMesh {
-  std::vector<double> coordinates;       // size 3 * nodeCount()
-  std::vector<std::int32_t> triangles;   // size 3 * triangleCount()
+  std::vector<double> coordinates;     // size 3 * nodeCount()
+  std::vector<std::int32_t> triangles; // size 3 * triangleCount()
 
   std::size_t nodeCount() const { return coordinates.size() / 3; }
   std::size_t triangleCount() const { return triangles.size() / 3; }
@@ -28,10 +28,10 @@ struct InterfaceMesh {
 /// Kinematics of the interface nodes at one instant: 3 values per node each, SI units
 /// (m, m/s, m/s^2). Velocities/accelerations may be empty when unknown (treated as zero).
 struct NodalKinematics {
-  double time = 0.0;                   // s
-  std::vector<double> positions;       // m
-  std::vector<double> velocities;      // m/s
-  std::vector<double> accelerations;   // m/s^2
+  double time = 0.0;                 // s
+  std::vector<double> positions;     // m
+  std::vector<double> velocities;    // m/s
+  std::vector<double> accelerations; // m/s^2
 
   std::size_t nodeCount() const { return positions.size() / 3; }
   /// Throws Error if sizes disagree with `nodes` or a value is not finite.

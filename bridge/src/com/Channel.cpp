@@ -27,9 +27,7 @@ namespace {
 
 using Clock = std::chrono::steady_clock;
 
-double secondsSince(Clock::time_point start) {
-  return std::chrono::duration<double>(Clock::now() - start).count();
-}
+double secondsSince(Clock::time_point start) { return std::chrono::duration<double>(Clock::now() - start).count(); }
 
 std::string zmqError(const char* what, const std::string& endpoint) {
   std::ostringstream text;
@@ -47,12 +45,12 @@ void setIntOption(void* socket, int option, int value, const char* name) {
 struct BufferPool {
   std::mutex mutex;
   std::vector<std::vector<std::uint8_t>> buffers;
-  static constexpr std::size_t kept = 4;  // enough for a message in flight each way plus slack
+  static constexpr std::size_t kept = 4; // enough for a message in flight each way plus slack
 };
 
 struct SentBuffer {
   std::vector<std::uint8_t> bytes;
-  std::shared_ptr<BufferPool> pool;  // shared: ZeroMQ may release the message after the Channel is gone
+  std::shared_ptr<BufferPool> pool; // shared: ZeroMQ may release the message after the Channel is gone
 };
 
 void releaseSentBuffer(void* /*data*/, void* hint) {
@@ -148,7 +146,7 @@ public:
     try {
       thread_ = std::thread([this] { serve(); });
     } catch (...) {
-      zmq_close(socket_);  // an open socket would keep zmq_ctx_term() waiting forever
+      zmq_close(socket_); // an open socket would keep zmq_ctx_term() waiting forever
       throw;
     }
   }
@@ -219,7 +217,7 @@ private:
   std::thread thread_;
   std::atomic<bool> stopping_{false};
   std::atomic<int> refused_{0};
-  bool admitted_ = false;  // touched by the handler thread only
+  bool admitted_ = false; // touched by the handler thread only
 };
 
 std::string Channel::bindEndpoint(const std::string& endpoint, bool haveToken) {
@@ -228,10 +226,11 @@ std::string Channel::bindEndpoint(const std::string& endpoint, bool haveToken) {
   const std::size_t colon = endpoint.rfind(':');
   const std::string host = colon > prefix.size() ? endpoint.substr(prefix.size(), colon - prefix.size()) : "";
   if (host == "*" || host.empty()) return prefix + "127.0.0.1" + endpoint.substr(colon);
-  const bool loopback = host == "localhost" || host == "[::1]" || host == "::1" || host.rfind("127.", 0) == 0 ||
-                        host == "lo";
+  const bool loopback =
+      host == "localhost" || host == "[::1]" || host == "::1" || host.rfind("127.", 0) == 0 || host == "lo";
   if (!loopback && !haveToken) {
-    throw Error("binding '" + endpoint + "' would accept participants from the network without a run token; "
+    throw Error("binding '" + endpoint +
+                "' would accept participants from the network without a run token; "
                 "set RAILCOSIM_BRIDGE_TOKEN (the same secret on both sides) or bind tcp://127.0.0.1:PORT");
   }
   return endpoint;
@@ -255,21 +254,21 @@ struct Channel::Impl {
   void* context = nullptr;
   void* socket = nullptr;
   void* monitor = nullptr;
-  std::unique_ptr<AdmissionHandler> admission;  // binding side only
-  std::set<int> openConnections;  // file descriptors of transport connections not yet dropped
-  int peerConnection = -1;        // binding side: the connection the peer's first message came from
+  std::unique_ptr<AdmissionHandler> admission; // binding side only
+  std::set<int> openConnections;               // file descriptors of transport connections not yet dropped
+  int peerConnection = -1;                     // binding side: the connection the peer's first message came from
   bool seen = false;
   bool disconnected = false;
-  bool refused = false;           // connecting side: the binding side refused our credentials
+  bool refused = false; // connecting side: the binding side refused our credentials
   // One thread at a time uses the socket: the owner for a whole send/receive call, the keepalive thread
   // only in between (try_lock), so ZeroMQ's single-thread rule holds and the owner never waits for it.
   std::mutex socketMutex;
-  Clock::time_point lastSent = Clock::now();   // guarded by socketMutex
-  Clock::time_point lastHeard = Clock::now();  // owner only
+  Clock::time_point lastSent = Clock::now();  // guarded by socketMutex
+  Clock::time_point lastHeard = Clock::now(); // owner only
   std::thread keepalive;
   std::mutex keepaliveMutex;
   std::condition_variable keepaliveWake;
-  bool keepaliveStop = false;  // guarded by keepaliveMutex
+  bool keepaliveStop = false; // guarded by keepaliveMutex
 
   void drainMonitor();
   /// tcp: whether the peer's connection received bytes within `window` (a large message still arriving
@@ -283,7 +282,7 @@ struct Channel::Impl {
   void sendKeepaliveIfDue() {
     const auto now = Clock::now();
     if (now - lastSent < interval()) return;
-    zmq_send(socket, nullptr, 0, ZMQ_DONTWAIT);  // best effort: a full queue already keeps the peer informed
+    zmq_send(socket, nullptr, 0, ZMQ_DONTWAIT); // best effort: a full queue already keeps the peer informed
     lastSent = now;
   }
   void runKeepalive() {
@@ -373,7 +372,8 @@ Channel::Channel(ChannelOptions options) : impl_(std::make_unique<Impl>()) {
       // can be announced to the peer and two runs can never race for one port number.
       char bound[1024] = {};
       std::size_t boundSize = sizeof(bound);
-      if (endpoint.rfind("tcp://", 0) == 0 && zmq_getsockopt(impl_->socket, ZMQ_LAST_ENDPOINT, bound, &boundSize) == 0) {
+      if (endpoint.rfind("tcp://", 0) == 0 &&
+          zmq_getsockopt(impl_->socket, ZMQ_LAST_ENDPOINT, bound, &boundSize) == 0) {
         impl_->options.endpoint = bound;
       }
     } else {
@@ -402,7 +402,7 @@ void Channel::close() {
   }
   if (impl_->admission) impl_->admission->stop();
   if (impl_->socket != nullptr) {
-    impl_->drainMonitor();  // a full monitor queue would keep zmq_socket_monitor() below waiting
+    impl_->drainMonitor(); // a full monitor queue would keep zmq_socket_monitor() below waiting
     zmq_socket_monitor(impl_->socket, nullptr, 0);
     zmq_close(impl_->socket);
     impl_->socket = nullptr;
@@ -440,8 +440,8 @@ void Channel::drainMonitor() { impl_->drainMonitor(); }
 
 bool Channel::Impl::bytesArrivedWithin(Clock::duration window) const {
   if (options.endpoint.rfind("tcp://", 0) != 0) return false;
-  const int connection = options.side == Side::Bind ? peerConnection
-                                                     : (openConnections.size() == 1 ? *openConnections.begin() : -1);
+  const int connection =
+      options.side == Side::Bind ? peerConnection : (openConnections.size() == 1 ? *openConnections.begin() : -1);
   if (connection < 0 || openConnections.count(connection) == 0) return false;
   tcp_info info{};
   socklen_t length = sizeof(info);
@@ -474,37 +474,37 @@ void Channel::Impl::drainMonitor() {
     zmq_msg_close(&eventFrame);
     const int connection = static_cast<int>(value);
     switch (event) {
-    case ZMQ_EVENT_CONNECTED:
-    case ZMQ_EVENT_ACCEPTED:
-      openConnections.insert(connection);
-      break;
-    case ZMQ_EVENT_HANDSHAKE_SUCCEEDED:
-      // Binding side: only the admitted connection gets here (the admission handler lets one in).
-      seen = true;
-      log(LogLevel::Debug, "bridge transport: peer connected on " + options.endpoint);
-      break;
-    case ZMQ_EVENT_DISCONNECTED:
-      openConnections.erase(connection);
-      // Binding side: only the connection the peer's messages came from counts, so refused or stray
-      // connections that close never end a run. Connecting side: its one connection is the peer's.
-      if (options.side == Side::Bind ? connection == peerConnection : seen) {
-        disconnected = true;
-      }
-      // Binding side, the admitted peer gone before its first frame named its connection: no connection
-      // is left open after its handshake succeeded (strays never reach HANDSHAKE_SUCCEEDED).
-      if (options.side == Side::Bind && peerConnection < 0 && seen && openConnections.empty()) disconnected = true;
-      log(LogLevel::Debug, "bridge transport: connection dropped on " + options.endpoint);
-      break;
-    case ZMQ_EVENT_HANDSHAKE_FAILED_AUTH:
-      if (options.side == Side::Connect) refused = true;
-      break;
-    case ZMQ_EVENT_HANDSHAKE_FAILED_PROTOCOL:
-    case ZMQ_EVENT_HANDSHAKE_FAILED_NO_DETAIL:
-      log(LogLevel::Debug, "bridge transport: a connection on " + options.endpoint +
-                               " failed the ZeroMQ handshake (not a railcosim participant?)");
-      break;
-    default:
-      break;
+      case ZMQ_EVENT_CONNECTED:
+      case ZMQ_EVENT_ACCEPTED:
+        openConnections.insert(connection);
+        break;
+      case ZMQ_EVENT_HANDSHAKE_SUCCEEDED:
+        // Binding side: only the admitted connection gets here (the admission handler lets one in).
+        seen = true;
+        log(LogLevel::Debug, "bridge transport: peer connected on " + options.endpoint);
+        break;
+      case ZMQ_EVENT_DISCONNECTED:
+        openConnections.erase(connection);
+        // Binding side: only the connection the peer's messages came from counts, so refused or stray
+        // connections that close never end a run. Connecting side: its one connection is the peer's.
+        if (options.side == Side::Bind ? connection == peerConnection : seen) {
+          disconnected = true;
+        }
+        // Binding side, the admitted peer gone before its first frame named its connection: no connection
+        // is left open after its handshake succeeded (strays never reach HANDSHAKE_SUCCEEDED).
+        if (options.side == Side::Bind && peerConnection < 0 && seen && openConnections.empty()) disconnected = true;
+        log(LogLevel::Debug, "bridge transport: connection dropped on " + options.endpoint);
+        break;
+      case ZMQ_EVENT_HANDSHAKE_FAILED_AUTH:
+        if (options.side == Side::Connect) refused = true;
+        break;
+      case ZMQ_EVENT_HANDSHAKE_FAILED_PROTOCOL:
+      case ZMQ_EVENT_HANDSHAKE_FAILED_NO_DETAIL:
+        log(LogLevel::Debug, "bridge transport: a connection on " + options.endpoint +
+                                 " failed the ZeroMQ handshake (not a railcosim participant?)");
+        break;
+      default:
+        break;
     }
   }
 }
@@ -513,7 +513,8 @@ Status Channel::send(std::vector<std::uint8_t>&& bytes, double timeoutSeconds, T
   if (impl_->socket == nullptr) throw Error("bridge transport: send on a closed channel to " + impl_->options.endpoint);
   std::lock_guard<std::mutex> lock(impl_->socketMutex);
   const auto start = Clock::now();
-  const auto deadline = start + std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(timeoutSeconds));
+  const auto deadline =
+      start + std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(timeoutSeconds));
   auto* owned = new SentBuffer{std::move(bytes), impl_->pool};
   zmq_msg_t message;
   if (zmq_msg_init_data(&message, owned->bytes.data(), owned->bytes.size(), releaseSentBuffer, owned) != 0) {
@@ -532,7 +533,7 @@ Status Channel::send(std::vector<std::uint8_t>&& bytes, double timeoutSeconds, T
       impl_->lastSent = Clock::now();
       timing.transferSeconds += secondsSince(attempt);
       timing.waitSeconds += std::chrono::duration<double>(attempt - start).count();
-      return Status::Ok;  // ZeroMQ owns and frees the message now
+      return Status::Ok; // ZeroMQ owns and frees the message now
     }
     if (zmq_errno() != EAGAIN && zmq_errno() != EINTR) {
       zmq_msg_close(&message);
@@ -544,7 +545,8 @@ Status Channel::send(std::vector<std::uint8_t>&& bytes, double timeoutSeconds, T
       timing.waitSeconds += secondsSince(start);
       return Status::Timeout;
     }
-    const double slice = std::min(impl_->options.pollSliceSeconds, std::chrono::duration<double>(deadline - now).count());
+    const double slice =
+        std::min(impl_->options.pollSliceSeconds, std::chrono::duration<double>(deadline - now).count());
     zmq_pollitem_t items[2] = {{impl_->socket, 0, ZMQ_POLLOUT, 0}, {impl_->monitor, 0, ZMQ_POLLIN, 0}};
     zmq_poll(items, 2, std::max(1L, static_cast<long>(slice * 1000.0)));
   }
@@ -556,7 +558,8 @@ Status Channel::receive(Frame& frame, double timeoutSeconds, Timing& timing) {
   }
   std::lock_guard<std::mutex> lock(impl_->socketMutex);
   const auto start = Clock::now();
-  const auto deadline = start + std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(timeoutSeconds));
+  const auto deadline =
+      start + std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(timeoutSeconds));
   auto tryReceive = [&]() {
     const auto attempt = Clock::now();
     while (true) {
@@ -579,7 +582,7 @@ Status Channel::receive(Frame& frame, double timeoutSeconds, Timing& timing) {
     }
     timing.transferSeconds += secondsSince(attempt);
     timing.waitSeconds += std::chrono::duration<double>(attempt - start).count();
-    impl_->seen = true;  // a message proves the peer, even before the monitor event is read
+    impl_->seen = true; // a message proves the peer, even before the monitor event is read
     if (zmq_msg_more(&frame.impl_->message)) {
       // Drop the rest so the socket stays usable, then report: the protocol sends single-part messages.
       zmq_msg_t rest;
@@ -606,7 +609,7 @@ Status Channel::receive(Frame& frame, double timeoutSeconds, Timing& timing) {
       timing.waitSeconds += secondsSince(start);
       return Status::Refused;
     }
-    impl_->sendKeepaliveIfDue();  // this side waits: its keepalive thread is locked out, so it speaks here
+    impl_->sendKeepaliveIfDue(); // this side waits: its keepalive thread is locked out, so it speaks here
     const auto now = Clock::now();
     // Silence counts from this call's start at the earliest: frames queued while the caller computed were
     // read above, so a live peer has always been heard within the last interval or so.

@@ -29,16 +29,16 @@ enum class Side { Bind, Connect };
 
 enum class Status {
   Ok,
-  Timeout,           // nothing arrived / could not be queued before the deadline
-  PeerDisconnected,  // the admitted peer's connection dropped (its process died)
-  PeerSilent,        // the peer sent nothing, not even a keepalive, for 3 heartbeat intervals (frozen)
-  Refused,           // connecting side: the binding side refused this participant (token, or already taken)
+  Timeout,          // nothing arrived / could not be queued before the deadline
+  PeerDisconnected, // the admitted peer's connection dropped (its process died)
+  PeerSilent,       // the peer sent nothing, not even a keepalive, for 3 heartbeat intervals (frozen)
+  Refused,          // connecting side: the binding side refused this participant (token, or already taken)
 };
 
 /// Where the time of one send or receive went (seconds).
 struct Timing {
-  double waitSeconds = 0.0;      // before the message was available (receive) or the socket writable (send)
-  double transferSeconds = 0.0;  // inside the ZeroMQ call that moves the message
+  double waitSeconds = 0.0;     // before the message was available (receive) or the socket writable (send)
+  double transferSeconds = 0.0; // inside the ZeroMQ call that moves the message
 };
 
 struct ChannelOptions {
@@ -49,12 +49,12 @@ struct ChannelOptions {
   /// connected peer returns PeerSilent. Application-level on purpose: ZeroMQ's own heartbeat timer can
   /// fire on a connection that already failed and abort the process in libzmq 4.3.4.
   double heartbeatSeconds = 1.0;
-  int lingerMilliseconds = 1000;   // longest close() waits to flush queued messages
-  double pollSliceSeconds = 0.1;   // a blocked call wakes up at least this often
+  int lingerMilliseconds = 1000; // longest close() waits to flush queued messages
+  double pollSliceSeconds = 0.1; // a blocked call wakes up at least this often
   /// Run secret, sent as the ZeroMQ PLAIN password (at most 255 bytes). The binding side admits the
   /// first connection that presents it and refuses every other one before it can send a message.
   std::string token;
-  std::uint64_t maxMessageBytes = 0;  // larger incoming messages drop their connection; 0: no limit
+  std::uint64_t maxMessageBytes = 0; // larger incoming messages drop their connection; 0: no limit
 };
 
 /// A PAIR socket plus a socket monitor that reports the peer's disconnection as soon as ZeroMQ sees it.

@@ -21,7 +21,7 @@ struct Endpoint {
     socket = zmq_socket(context, ZMQ_PAIR);
     // Long enough that the echo side's last reply is flushed before its socket closes.
     const int linger = 2000;
-    const int timeout = 10000;  // ms; a lost message fails the measurement instead of hanging it
+    const int timeout = 10000; // ms; a lost message fails the measurement instead of hanging it
     zmq_setsockopt(socket, ZMQ_LINGER, &linger, sizeof(linger));
     zmq_setsockopt(socket, ZMQ_RCVTIMEO, &timeout, sizeof(timeout));
     zmq_setsockopt(socket, ZMQ_SNDTIMEO, &timeout, sizeof(timeout));
@@ -29,7 +29,8 @@ struct Endpoint {
     if (status != 0) {
       const std::string reason = zmq_strerror(zmq_errno());
       close();
-      throw Error("raw transfer baseline: cannot " + std::string(bind ? "bind " : "connect ") + endpoint + ": " + reason);
+      throw Error("raw transfer baseline: cannot " + std::string(bind ? "bind " : "connect ") + endpoint + ": " +
+                  reason);
     }
   }
   ~Endpoint() { close(); }
@@ -90,7 +91,7 @@ RawRoundTrip measureRawRoundTrip(const std::string& endpoint, std::size_t forwar
   echo.join();
   binder.close();
   const std::string prefix = "ipc://";
-  if (endpoint.rfind(prefix, 0) == 0) ::unlink(endpoint.substr(prefix.size()).c_str());  // libzmq leaves it
+  if (endpoint.rfind(prefix, 0) == 0) ::unlink(endpoint.substr(prefix.size()).c_str()); // libzmq leaves it
   if (mainError) std::rethrow_exception(mainError);
   if (echoError) std::rethrow_exception(echoError);
   return result;

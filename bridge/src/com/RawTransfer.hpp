@@ -7,7 +7,7 @@
 namespace railcosim::com {
 
 struct RawRoundTrip {
-  double secondsPerRoundTrip = 0.0;  // one forward + one backward message, wall-clock
+  double secondsPerRoundTrip = 0.0; // one forward + one backward message, wall-clock
   int roundTrips = 0;
 };
 

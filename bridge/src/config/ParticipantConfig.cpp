@@ -11,8 +11,10 @@ namespace railcosim::config {
 void validate(const ParticipantConfig& config, const char* role) {
   const std::string who = std::string(role) + " participant '" + config.name + "'";
   if (config.name.empty() || config.name.size() > 200) {
-    throw Error(std::string(role) + " participant: name must be 1 to 200 characters (it is printed in every "
-                "error message); got '" + config.name + "'");
+    throw Error(std::string(role) +
+                " participant: name must be 1 to 200 characters (it is printed in every "
+                "error message); got '" +
+                config.name + "'");
   }
   const bool knownTransport = config.endpoint.rfind("ipc://", 0) == 0 || config.endpoint.rfind("tcp://", 0) == 0;
   if (!knownTransport || config.endpoint.find("://") + 3 >= config.endpoint.size()) {

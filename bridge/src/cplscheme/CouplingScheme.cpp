@@ -11,9 +11,13 @@ void SchemeSettings::validate() const {
 }
 
 DemCouplingScheme::DemCouplingScheme(CouplingScheme scheme, DemParticipant& participant, const InterfaceSetup& setup)
-    : participant_(participant), windowLength_(setup.femTimeStep), windowStart_(setup.initial),
-      lastReceived_(setup.initial), scheme_(scheme) {
-  if (!(windowLength_ > 0.0)) throw Error("coupling scheme: the FEM side announced a window of " + std::to_string(windowLength_) + " s");
+    : participant_(participant),
+      windowLength_(setup.femTimeStep),
+      windowStart_(setup.initial),
+      lastReceived_(setup.initial),
+      scheme_(scheme) {
+  if (!(windowLength_ > 0.0))
+    throw Error("coupling scheme: the FEM side announced a window of " + std::to_string(windowLength_) + " s");
 }
 
 DemCouplingScheme::~DemCouplingScheme() = default;
@@ -36,7 +40,8 @@ WindowResult DemCouplingScheme::completeWindow(const std::vector<double>& forces
   return result;
 }
 
-double DemCouplingScheme::work(const std::vector<double>& forces, const NodalKinematics& from, const NodalKinematics& to) {
+double DemCouplingScheme::work(const std::vector<double>& forces, const NodalKinematics& from,
+                               const NodalKinematics& to) {
   double sum = 0.0;
   for (std::size_t k = 0; k < forces.size(); ++k) sum += forces[k] * (to.positions[k] - from.positions[k]);
   return sum;

@@ -18,24 +18,30 @@ double rms(const std::vector<double>& values) {
 
 void ImplicitSettings::validate() const {
   std::ostringstream problem;
-  if (!(tolerance > 0.0) || !std::isfinite(tolerance)) problem << "tolerance " << tolerance << " must be positive";
-  else if (!(absoluteTolerance >= 0.0) || !std::isfinite(absoluteTolerance)) problem << "absoluteTolerance " << absoluteTolerance << " m must be >= 0";
-  else if (maxIterations < 1) problem << "maxIterations " << maxIterations << " must be at least 1";
-  else if (!(relaxation > 0.0 && relaxation <= 1.0)) problem << "relaxation " << relaxation << " must lie in (0, 1]";
+  if (!(tolerance > 0.0) || !std::isfinite(tolerance))
+    problem << "tolerance " << tolerance << " must be positive";
+  else if (!(absoluteTolerance >= 0.0) || !std::isfinite(absoluteTolerance))
+    problem << "absoluteTolerance " << absoluteTolerance << " m must be >= 0";
+  else if (maxIterations < 1)
+    problem << "maxIterations " << maxIterations << " must be at least 1";
+  else if (!(relaxation > 0.0 && relaxation <= 1.0))
+    problem << "relaxation " << relaxation << " must lie in (0, 1]";
   if (!problem.str().empty()) throw Error("implicit coupling: " + problem.str());
 }
 
-ImplicitWindowIteration::ImplicitWindowIteration(ImplicitSettings settings, std::vector<double> referencePositions, double windowLength)
+ImplicitWindowIteration::ImplicitWindowIteration(ImplicitSettings settings, std::vector<double> referencePositions,
+                                                 double windowLength)
     : settings_(settings), reference_(std::move(referencePositions)), windowLength_(windowLength) {
   settings_.validate();
   if (!(windowLength_ > 0.0)) throw Error("implicit coupling: the window length must be positive");
-  if (reference_.empty() || reference_.size() % 3 != 0) throw Error("implicit coupling: reference positions need 3 values per node");
+  if (reference_.empty() || reference_.size() % 3 != 0)
+    throw Error("implicit coupling: reference positions need 3 values per node");
 }
 
 void ImplicitWindowIteration::startWindow(const NodalKinematics& accepted) {
   if (accepted.positions.size() != reference_.size()) {
-    throw Error("implicit coupling: window start has " + std::to_string(accepted.positions.size()) + " position values, the interface " +
-                std::to_string(reference_.size()));
+    throw Error("implicit coupling: window start has " + std::to_string(accepted.positions.size()) +
+                " position values, the interface " + std::to_string(reference_.size()));
   }
   accepted_ = accepted;
   // Predictor: the accepted state's own Taylor extrapolation over the window (exact for uniform acceleration).
@@ -74,7 +80,8 @@ ImplicitWindowIteration::Outcome ImplicitWindowIteration::judge(const NodalKinem
     displacementSquares += displacement * displacement;
   }
   residualNorm_ = rms(residual_);
-  limit_ = settings_.tolerance * std::sqrt(displacementSquares / static_cast<double>(assumed_.size())) + settings_.absoluteTolerance;
+  limit_ = settings_.tolerance * std::sqrt(displacementSquares / static_cast<double>(assumed_.size())) +
+           settings_.absoluteTolerance;
   if (!surfaceTouched || residualNorm_ <= limit_) return Outcome::Converged;
   if (static_cast<int>(iteration_) + 1 >= settings_.maxIterations) return Outcome::GaveUp;
   if (settings_.aitken && !previousResidual_.empty()) {
@@ -95,9 +102,12 @@ ImplicitWindowIteration::Outcome ImplicitWindowIteration::judge(const NodalKinem
 
 std::string toString(ImplicitWindowIteration::Outcome outcome) {
   switch (outcome) {
-  case ImplicitWindowIteration::Outcome::Converged: return "Converged";
-  case ImplicitWindowIteration::Outcome::Repeat: return "Repeat";
-  case ImplicitWindowIteration::Outcome::GaveUp: return "GaveUp";
+    case ImplicitWindowIteration::Outcome::Converged:
+      return "Converged";
+    case ImplicitWindowIteration::Outcome::Repeat:
+      return "Repeat";
+    case ImplicitWindowIteration::Outcome::GaveUp:
+      return "GaveUp";
   }
   return "unknown";
 }

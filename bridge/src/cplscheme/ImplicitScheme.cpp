@@ -13,7 +13,8 @@ class ImplicitDem : public DemCouplingScheme {
 public:
   ImplicitDem(const ImplicitSettings& settings, DemParticipant& participant, const InterfaceSetup& setup)
       : DemCouplingScheme(CouplingScheme::Implicit, participant, setup),
-        iteration_(settings, setup.mesh.coordinates, setup.femTimeStep), accepted_(setup.initial) {
+        iteration_(settings, setup.mesh.coordinates, setup.femTimeStep),
+        accepted_(setup.initial) {
     iteration_.startWindow(accepted_);
     windowStart_ = iteration_.surfaceStart();
     checkpointDue_ = true;
@@ -52,7 +53,7 @@ private:
   }
 
   ImplicitWindowIteration iteration_;
-  NodalKinematics accepted_;  // FEM state at the start of the current window
+  NodalKinematics accepted_; // FEM state at the start of the current window
 };
 
 class ImplicitFem : public FemCouplingScheme {
@@ -81,7 +82,7 @@ public:
 
   void endStep(const NodalKinematics& end) override {
     participant_.sendKinematics(window_, end);
-    solved_ = true;  // final once the DEM side accepts it
+    solved_ = true; // final once the DEM side accepts it
   }
 
 private:
@@ -110,7 +111,8 @@ public:
   std::string expectedForces() const override {
     std::string text = "window " + std::to_string(nextForces_);
     if (nextForces_ > 0) {
-      text += " or for window " + std::to_string(nextForces_ - 1) + " (iteration " + std::to_string(iteration_ + 1) + ")";
+      text +=
+          " or for window " + std::to_string(nextForces_ - 1) + " (iteration " + std::to_string(iteration_ + 1) + ")";
     }
     return text;
   }
@@ -131,11 +133,12 @@ public:
   }
 
 private:
-  std::uint32_t iteration_ = 0;  // pass of the forces exchanged last
-  bool owed_ = false;            // forces exchanged, their kinematics not yet
+  std::uint32_t iteration_ = 0; // pass of the forces exchanged last
+  bool owed_ = false;           // forces exchanged, their kinematics not yet
 };
 
-std::unique_ptr<DemCouplingScheme> makeDem(const SchemeSettings& settings, DemParticipant& participant, const InterfaceSetup& setup) {
+std::unique_ptr<DemCouplingScheme> makeDem(const SchemeSettings& settings, DemParticipant& participant,
+                                           const InterfaceSetup& setup) {
   return std::make_unique<ImplicitDem>(settings.implicit, participant, setup);
 }
 

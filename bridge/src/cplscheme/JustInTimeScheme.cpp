@@ -17,7 +17,7 @@ private:
     NodalKinematics received = participant_.receiveKinematics(message.window);
     WindowResult result;
     result.femWork = work(message.forces, windowStart_, received);
-    windowStart_ = received;  // P + V tau + A tau^2/2 from the state at t_i+1
+    windowStart_ = received; // P + V tau + A tau^2/2 from the state at t_i+1
     lastReceived_ = std::move(received);
     return result;
   }
@@ -36,7 +36,8 @@ public:
   }
 };
 
-std::unique_ptr<DemCouplingScheme> makeDem(const SchemeSettings&, DemParticipant& participant, const InterfaceSetup& setup) {
+std::unique_ptr<DemCouplingScheme> makeDem(const SchemeSettings&, DemParticipant& participant,
+                                           const InterfaceSetup& setup) {
   return std::make_unique<JustInTimeDem>(participant, setup);
 }
 

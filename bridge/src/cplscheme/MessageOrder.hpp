@@ -17,7 +17,7 @@ public:
   /// Empty when Forces may be exchanged at all now; else why not (a reply is still owed).
   virtual std::string forcesBlockedBecause() const { return {}; }
   virtual bool forcesAllowed(std::uint64_t window, std::uint32_t iteration) const = 0;
-  virtual std::string expectedForces() const = 0;               // e.g. "window 3 (iteration 0) or window 2 (iteration 2)"
+  virtual std::string expectedForces() const = 0; // e.g. "window 3 (iteration 0) or window 2 (iteration 2)"
   virtual void forcesExchanged(std::uint64_t window, std::uint32_t iteration) = 0;
   virtual bool kinematicsAllowed(std::uint64_t window) const = 0;
   virtual std::string expectedKinematics() const = 0;

@@ -39,11 +39,11 @@ public:
   bool beginStep(std::vector<double>& forces) override {
     if (!started_) {
       started_ = true;
-      forces.assign(3 * nodeCount_, 0.0);  // the first step runs before any DEM force exists
+      forces.assign(3 * nodeCount_, 0.0); // the first step runs before any DEM force exists
       return true;
     }
-    if (!receive(forces)) return false;  // the last solved step stays: it ran on valid forces
-    window_ = windowsReceived();         // the forces of window i load the step of window i+1
+    if (!receive(forces)) return false; // the last solved step stays: it ran on valid forces
+    window_ = windowsReceived();        // the forces of window i load the step of window i+1
     return true;
   }
 
@@ -56,7 +56,8 @@ private:
   bool started_ = false;
 };
 
-std::unique_ptr<DemCouplingScheme> makeDem(const SchemeSettings&, DemParticipant& participant, const InterfaceSetup& setup) {
+std::unique_ptr<DemCouplingScheme> makeDem(const SchemeSettings&, DemParticipant& participant,
+                                           const InterfaceSetup& setup) {
   return std::make_unique<PredictiveDem>(participant, setup);
 }
 

@@ -3,13 +3,12 @@
 #include "railcosim/Error.hpp"
 #include "railcosim/Participant.hpp"
 
-
 namespace railcosim {
 namespace cplscheme {
 
-extern const SchemeEntry justInTimeEntry;  // JustInTimeScheme.cpp
-extern const SchemeEntry predictiveEntry;  // PredictiveScheme.cpp
-extern const SchemeEntry implicitEntry;    // ImplicitScheme.cpp
+extern const SchemeEntry justInTimeEntry; // JustInTimeScheme.cpp
+extern const SchemeEntry predictiveEntry; // PredictiveScheme.cpp
+extern const SchemeEntry implicitEntry;   // ImplicitScheme.cpp
 
 namespace {
 
@@ -30,8 +29,8 @@ std::unique_ptr<MessageOrder> makeMessageOrder(CouplingScheme scheme) { return s
 
 } // namespace cplscheme
 
-std::unique_ptr<DemCouplingScheme> DemCouplingScheme::create(const SchemeSettings& settings, DemParticipant& participant,
-                                                             const InterfaceSetup& setup) {
+std::unique_ptr<DemCouplingScheme> DemCouplingScheme::create(const SchemeSettings& settings,
+                                                             DemParticipant& participant, const InterfaceSetup& setup) {
   settings.validate();
   return cplscheme::schemeEntry(settings.scheme).makeDem(settings, participant, setup);
 }

@@ -12,10 +12,14 @@ namespace {
 
 const char* levelName(LogLevel level) {
   switch (level) {
-  case LogLevel::Error: return "ERROR";
-  case LogLevel::Warning: return "WARNING";
-  case LogLevel::Info: return "INFO";
-  case LogLevel::Debug: return "DEBUG";
+    case LogLevel::Error:
+      return "ERROR";
+    case LogLevel::Warning:
+      return "WARNING";
+    case LogLevel::Info:
+      return "INFO";
+    case LogLevel::Debug:
+      return "DEBUG";
   }
   return "?";
 }

@@ -27,8 +27,8 @@ std::array<double, 3> barycentricWeights(const Vector& a, const Vector& b, const
   // Relative threshold (scale-free): 1e-24 on |ab x ac|^2 / (|ab|^2 |ac|^2) is sin^2 of a 1e-12 rad angle.
   if (!(determinant > 1e-24 * abab * acac) || !std::isfinite(determinant)) {
     std::ostringstream message;
-    message << "barycentricWeights: triangle (" << a[0] << "," << a[1] << "," << a[2] << "), (" << b[0] << ","
-            << b[1] << "," << b[2] << "), (" << c[0] << "," << c[1] << "," << c[2]
+    message << "barycentricWeights: triangle (" << a[0] << "," << a[1] << "," << a[2] << "), (" << b[0] << "," << b[1]
+            << "," << b[2] << "), (" << c[0] << "," << c[1] << "," << c[2]
             << ") is degenerate (zero area); the force cannot be lumped onto it";
     throw Error(message.str());
   }
@@ -73,14 +73,14 @@ void lumpPointForce(const std::vector<double>& positions, const std::vector<std:
   const std::size_t nodes = positions.size() / 3;
   if (positions.size() % 3 != 0 || nodalForces.size() != positions.size()) {
     std::ostringstream message;
-    message << "lumpPointForce: positions has " << positions.size() << " values and nodalForces "
-            << nodalForces.size() << "; both must hold 3 values per node";
+    message << "lumpPointForce: positions has " << positions.size() << " values and nodalForces " << nodalForces.size()
+            << "; both must hold 3 values per node";
     throw Error(message.str());
   }
   if (triangle >= triangles.size() / 3) {
     std::ostringstream message;
-    message << "lumpPointForce: triangle " << triangle << " is out of range (the surface has "
-            << triangles.size() / 3 << " triangles)";
+    message << "lumpPointForce: triangle " << triangle << " is out of range (the surface has " << triangles.size() / 3
+            << " triangles)";
     throw Error(message.str());
   }
   std::size_t corner[3];

@@ -18,8 +18,8 @@ void checkFiniteArray(const std::vector<double>& values, const char* what, const
   for (std::size_t i = 0; i < values.size(); ++i) {
     if (!std::isfinite(values[i])) {
       std::ostringstream message;
-      message << owner << ": " << what << "[" << i << "] (node " << i / 3 << ", " << componentName(i)
-              << ") is " << values[i] << "; every value must be finite";
+      message << owner << ": " << what << "[" << i << "] (node " << i / 3 << ", " << componentName(i) << ") is "
+              << values[i] << "; every value must be finite";
       throw Error(message.str());
     }
   }
@@ -58,8 +58,8 @@ void InterfaceMesh::validate() const {
     const double cross[3] = {ab[1] * ac[2] - ab[2] * ac[1], ab[2] * ac[0] - ab[0] * ac[2],
                              ab[0] * ac[1] - ab[1] * ac[0]};
     const double twiceArea = std::sqrt(cross[0] * cross[0] + cross[1] * cross[1] + cross[2] * cross[2]);
-    const double longestSquared = std::max({ab[0] * ab[0] + ab[1] * ab[1] + ab[2] * ab[2],
-                                            ac[0] * ac[0] + ac[1] * ac[1] + ac[2] * ac[2]});
+    const double longestSquared =
+        std::max({ab[0] * ab[0] + ab[1] * ab[1] + ab[2] * ab[2], ac[0] * ac[0] + ac[1] * ac[1] + ac[2] * ac[2]});
     // Relative test: the area compared with the squared edge length, so the unit of length does not matter.
     // 1e-12 is far below any usable element shape and above round-off of collinear points.
     if (!(twiceArea > 1e-12 * longestSquared)) {

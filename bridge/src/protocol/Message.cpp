@@ -19,7 +19,6 @@ bool isCanonicalScheme(const std::string& name) {
   }
 }
 
-
 constexpr bool hostIsLittleEndian =
 #if defined(__BYTE_ORDER__) && __BYTE_ORDER__ == __ORDER_LITTLE_ENDIAN__
     true;
@@ -31,7 +30,7 @@ constexpr bool hostIsLittleEndian =
 /// 32-bit word carries the exponent; testing it with 32-bit operations lets the loop vectorize with
 /// plain SSE2, so the check costs about as much as one copy of the data.
 bool allFinite(const std::uint8_t* bytes, std::size_t count) {
-  constexpr std::uint32_t exponentMask = 0x7ff00000u;  // all ones: NaN or infinity
+  constexpr std::uint32_t exponentMask = 0x7ff00000u; // all ones: NaN or infinity
   std::uint32_t nonFinite = 0;
   for (std::size_t i = 0; i < count; ++i) {
     std::uint32_t high;
@@ -62,7 +61,8 @@ public:
     const auto* begin = static_cast<const std::uint8_t*>(data);
     bytes_.insert(bytes_.end(), begin, begin + size);
   }
-  /// Appends the array; returns false if a value is NaN or infinite (checked right after the copy, while the data are in cache).
+  /// Appends the array; returns false if a value is NaN or infinite (checked right after the copy, while the data are
+  /// in cache).
   bool putF64Array(const std::vector<double>& values) {
     if (hostIsLittleEndian) {
       putBytes(values.data(), values.size() * sizeof(double));
@@ -109,7 +109,8 @@ public:
     const std::size_t at = advance(size);
     return std::string(reinterpret_cast<const char*>(data_ + at), size);
   }
-  /// Reads `count` reals; returns false if one is NaN or infinite (checked right after the copy, while the data are in cache).
+  /// Reads `count` reals; returns false if one is NaN or infinite (checked right after the copy, while the data are in
+  /// cache).
   bool f64Array(std::vector<double>& values, std::size_t count) {
     const std::size_t at = advance(count * sizeof(double));
     if (hostIsLittleEndian) {
@@ -200,8 +201,8 @@ void requireFinite(const std::vector<double>& values, const std::string& message
   for (std::size_t i = 0; i < values.size(); ++i) {
     if (!std::isfinite(values[i])) {
       std::ostringstream text;
-      text << message << ": field '" << field << "'[" << i << "] (node " << i / 3 << ", " << componentName(i)
-           << ") is " << values[i] << "; the sender produced a non-finite value (diverged solution?)";
+      text << message << ": field '" << field << "'[" << i << "] (node " << i / 3 << ", " << componentName(i) << ") is "
+           << values[i] << "; the sender produced a non-finite value (diverged solution?)";
       throw ProtocolError(text.str());
     }
   }
@@ -300,31 +301,40 @@ std::string checkedText(const std::string& value, const char* field) {
 
 std::string toString(MessageType type) {
   switch (type) {
-  case MessageType::Hello: return "Hello";
-  case MessageType::InterfaceMesh: return "InterfaceMesh";
-  case MessageType::Forces: return "Forces";
-  case MessageType::Kinematics: return "Kinematics";
-  case MessageType::Finalize: return "Finalize";
-  case MessageType::Abort: return "Abort";
+    case MessageType::Hello:
+      return "Hello";
+    case MessageType::InterfaceMesh:
+      return "InterfaceMesh";
+    case MessageType::Forces:
+      return "Forces";
+    case MessageType::Kinematics:
+      return "Kinematics";
+    case MessageType::Finalize:
+      return "Finalize";
+    case MessageType::Abort:
+      return "Abort";
   }
   return "type " + std::to_string(static_cast<unsigned>(type));
 }
 
 std::string toString(Role role) {
   switch (role) {
-  case Role::Fem: return "fem";
-  case Role::Dem: return "dem";
+    case Role::Fem:
+      return "fem";
+    case Role::Dem:
+      return "dem";
   }
   return "role " + std::to_string(static_cast<unsigned>(role));
 }
 
 std::string describe(const Header& header) {
   switch (header.type) {
-  case MessageType::Forces:
-  case MessageType::Kinematics:
-    return toString(header.type) + " for window " + std::to_string(header.window) +
-           (header.iteration > 0 ? " (iteration " + std::to_string(header.iteration) + ")" : std::string());
-  default: return toString(header.type);
+    case MessageType::Forces:
+    case MessageType::Kinematics:
+      return toString(header.type) + " for window " + std::to_string(header.window) +
+             (header.iteration > 0 ? " (iteration " + std::to_string(header.iteration) + ")" : std::string());
+    default:
+      return toString(header.type);
   }
 }
 
@@ -361,7 +371,8 @@ std::vector<std::uint8_t> encodeMesh(const InterfaceMesh& mesh, double femTimeSt
   Writer writer(headerBytes + header.payloadBytes, std::move(buffer));
   writeHeader(writer, header);
   writer.putF64(femTimeStep);
-  if (!writer.putF64Array(mesh.coordinates)) requireFinite(mesh.coordinates, "cannot encode InterfaceMesh", "coordinates");
+  if (!writer.putF64Array(mesh.coordinates))
+    requireFinite(mesh.coordinates, "cannot encode InterfaceMesh", "coordinates");
   writer.putI32Array(mesh.triangles);
   writeKinematicsArrays(writer, initial, "InterfaceMesh");
   return writer.take();
@@ -408,7 +419,8 @@ std::vector<std::uint8_t> encodeFinalize(std::uint64_t window, std::vector<std::
   return writer.take();
 }
 
-std::vector<std::uint8_t> encodeAbort(std::uint64_t window, const std::string& reason, std::vector<std::uint8_t> buffer) {
+std::vector<std::uint8_t> encodeAbort(std::uint64_t window, const std::string& reason,
+                                      std::vector<std::uint8_t> buffer) {
   // A reason longer than the limit is cut rather than refused: an abort must always go out.
   const std::string text = reason.substr(0, maxTextBytes);
   Header header;
@@ -467,8 +479,9 @@ Header decodeHeader(const std::uint8_t* data, std::size_t size) {
   }
   requireFiniteScalar(header.time, describe(header), "time");
   if (header.nodeCount > maxNodes || header.triangleCount > maxTriangles) {
-    text << describe(header) << ": field 'nodeCount' = " << header.nodeCount << " or 'triangleCount' = "
-         << header.triangleCount << " exceeds the protocol limits (" << maxNodes << ", " << maxTriangles << ")";
+    text << describe(header) << ": field 'nodeCount' = " << header.nodeCount
+         << " or 'triangleCount' = " << header.triangleCount << " exceeds the protocol limits (" << maxNodes << ", "
+         << maxTriangles << ")";
     throw ProtocolError(text.str());
   }
   const std::uint64_t received = size - headerBytes;
@@ -563,8 +576,8 @@ MeshSetup decodeMesh(const Header& header, const std::uint8_t* data) {
   for (std::size_t i = 0; i < setup.mesh.triangles.size(); ++i) {
     const std::int32_t index = setup.mesh.triangles[i];
     if (index < 0 || static_cast<std::uint64_t>(index) >= header.nodeCount) {
-      text << "InterfaceMesh: field 'triangles'[" << i << "] (triangle " << i / 3 << ", corner " << i % 3 << ") = "
-           << index << " is out of range [0, " << header.nodeCount << ")";
+      text << "InterfaceMesh: field 'triangles'[" << i << "] (triangle " << i / 3 << ", corner " << i % 3
+           << ") = " << index << " is out of range [0, " << header.nodeCount << ")";
       throw ProtocolError(text.str());
     }
   }
@@ -615,8 +628,8 @@ std::string decodeAbort(const Header& header, const std::uint8_t* data) {
   requireFlags(header, 0);
   if (header.payloadBytes > maxTextBytes) {
     std::ostringstream text;
-    text << "Abort: field 'payloadBytes' = " << header.payloadBytes << " exceeds the reason limit of "
-         << maxTextBytes << " bytes";
+    text << "Abort: field 'payloadBytes' = " << header.payloadBytes << " exceeds the reason limit of " << maxTextBytes
+         << " bytes";
     throw ProtocolError(text.str());
   }
   return std::string(reinterpret_cast<const char*>(data + headerBytes), static_cast<std::size_t>(header.payloadBytes));

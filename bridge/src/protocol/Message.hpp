@@ -24,9 +24,8 @@ constexpr std::uint64_t maxTriangles = 200'000'000;
 constexpr std::size_t maxTextBytes = 65'536;
 /// The largest message these limits allow (an InterfaceMesh of maxNodes nodes and maxTriangles triangles
 /// with velocities and accelerations): the transport drops a connection that announces more.
-constexpr std::uint64_t maxMessageBytes =
-    headerBytes + sizeof(double) + maxNodes * 3 * sizeof(double) + maxTriangles * 3 * sizeof(std::int32_t) +
-    3 * maxNodes * 3 * sizeof(double);
+constexpr std::uint64_t maxMessageBytes = headerBytes + sizeof(double) + maxNodes * 3 * sizeof(double) +
+                                          maxTriangles * 3 * sizeof(std::int32_t) + 3 * maxNodes * 3 * sizeof(double);
 /// The largest message the FEM side can legally receive once its interface has `nodes` nodes: Forces,
 /// or a Hello/Abort carrying texts of at most maxTextBytes each.
 constexpr std::uint64_t maxMessageBytesTowardsFem(std::uint64_t nodes) {
@@ -56,7 +55,7 @@ struct Header {
   std::uint16_t version = protocolVersion;
   MessageType type = MessageType::Hello;
   std::uint64_t window = 0;
-  std::uint32_t iteration = 0;   // implicit coupling: pass k of window `window` (Forces, Kinematics); else 0
+  std::uint32_t iteration = 0; // implicit coupling: pass k of window `window` (Forces, Kinematics); else 0
   std::uint32_t flags = 0;
   double time = 0.0;
   std::uint64_t nodeCount = 0;
@@ -68,7 +67,7 @@ struct Hello {
   Role role = Role::Fem;
   std::string participantName;
   std::string unitSystem = "SI";
-  std::string couplingScheme;  // "" (not stated), "justInTime", "predictive" or "implicit"
+  std::string couplingScheme; // "" (not stated), "justInTime", "predictive" or "implicit"
 };
 
 struct MeshSetup {

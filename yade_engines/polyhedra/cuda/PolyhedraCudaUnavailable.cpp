@@ -4,8 +4,8 @@
 namespace railcosim::polyhedra {
 
 std::unique_ptr<PolyhedraBackend> makeCudaBackend(std::string& reason) {
-    reason = "built without CUDA (configure with -DRAILCOSIM_WITH_CUDA=ON)";
-    return nullptr;
+  reason = "built without CUDA (configure with -DRAILCOSIM_WITH_CUDA=ON)";
+  return nullptr;
 }
 
-}  // namespace railcosim::polyhedra
+} // namespace railcosim::polyhedra

@@ -15,9 +15,9 @@ namespace yade {
 law, stress-dependent friction between clusters and bounded rolling friction. Equations: docs/contact-models.md. */
 class BallastMat : public FrictMat {
 public:
-	virtual ~BallastMat() = default;
-	void postLoad(BallastMat&);
-	// clang-format off
+  virtual ~BallastMat() = default;
+  void postLoad(BallastMat&);
+  // clang-format off
 	YADE_CLASS_BASE_DOC_ATTRS_CTOR(BallastMat,FrictMat,"Ballast grain material for :yref:`Law2_ScGeom_BallastPhys_Ballast` (railcosim). Inherits :yref:`young<ElastMat.young>` [Pa], :yref:`poisson<ElastMat.poisson>` [-], :yref:`density<Material.density>` [kg/m³] and :yref:`frictionAngle<FrictMat.frictionAngle>` [rad] (the contact uses tan of the smaller angle of the pair as μ0). Equations and sources: docs/contact-models.md.",
 		((Real,restitution,0.5,Attr::triggerPostLoad,"Normal coefficient of restitution e [-], 0 ≤ e ≤ 1, turned into the Hertzian damping ratio of Thornton et al. (2013); the pair uses the mean of the two damping ratios (Irazábal eq. 3.27e)."))
 		((Real,rollingFriction,0.0,Attr::triggerPostLoad,"Bounded rolling friction coefficient η_r [-] (dimensionless; rolling arm η_r·R1R2/(R1+R2)). The pair uses the larger value of the two materials, so a wall material with η_r = 1 stops grains rolling on it as in Irazábal §6.2. Applied by :yref:`BoundedRollingFrictionEngine` to spheres only."))
@@ -29,22 +29,22 @@ public:
 		,
 		createIndex();
 	);
-	// clang-format on
-	REGISTER_CLASS_INDEX(BallastMat, FrictMat);
+  // clang-format on
+  REGISTER_CLASS_INDEX(BallastMat, FrictMat);
 };
 REGISTER_SERIALIZABLE(BallastMat);
 
 /*! Per-contact parameters (set by the Ip2) and history (kept by the Law2) of the ballast contact law. */
 class BallastPhys : public FrictPhys {
-	// Derived Pohrt–Popov constants (A0, F(A0), ...) are rebuilt from the serialized inputs after loading.
-	bool                                   pohrtPopovReady = false;
-	railcosim::kernels::PohrtPopovParams   pohrtPopovCache {};
+  // Derived Pohrt–Popov constants (A0, F(A0), ...) are rebuilt from the serialized inputs after loading.
+  bool pohrtPopovReady = false;
+  railcosim::kernels::PohrtPopovParams pohrtPopovCache{};
 
 public:
-	virtual ~BallastPhys() = default;
-	//! Kernel parameter struct assembled from the attributes (builds the Pohrt–Popov cache on first use).
-	railcosim::kernels::BallastContactParams kernelParams();
-	// clang-format off
+  virtual ~BallastPhys() = default;
+  //! Kernel parameter struct assembled from the attributes (builds the Pohrt–Popov cache on first use).
+  railcosim::kernels::BallastContactParams kernelParams();
+  // clang-format off
 	YADE_CLASS_BASE_DOC_ATTRS_CTOR(BallastPhys,FrictPhys,"Interaction physics of :yref:`Law2_ScGeom_BallastPhys_Ballast` (railcosim). Inherits :yref:`normalForce<NormShearPhys.normalForce>` and :yref:`shearForce<NormShearPhys.shearForce>` [N] (forces on body 2), :yref:`kn<NormPhys.kn>` and :yref:`ks<NormShearPhys.ks>` [N/m] (current tangent stiffnesses, used by time steppers) and :yref:`tangensOfFrictionAngle<FrictPhys.tangensOfFrictionAngle>` (μ0 [-]).",
 		((Real,frictionCoeff,0.0,,"Friction coefficient μ [-] used in the last step (μ0, or reduced by stress-dependent friction)."))
 		((Real,maxNormalForce,0.0,,"Largest normal force F_max [N] reached (elasto-plastic Pohrt–Popov history)."))
@@ -68,30 +68,31 @@ public:
 		,
 		createIndex();
 	);
-	// clang-format on
-	REGISTER_CLASS_INDEX(BallastPhys, FrictPhys);
+  // clang-format on
+  REGISTER_CLASS_INDEX(BallastPhys, FrictPhys);
 };
 REGISTER_SERIALIZABLE(BallastPhys);
 
 class Ip2_BallastMat_BallastMat_BallastPhys : public IPhysFunctor {
 public:
-	void go(const shared_ptr<Material>& material1, const shared_ptr<Material>& material2, const shared_ptr<Interaction>& interaction) override;
-	FUNCTOR2D(BallastMat, BallastMat);
-	// clang-format off
+  void go(const shared_ptr<Material>& material1, const shared_ptr<Material>& material2,
+          const shared_ptr<Interaction>& interaction) override;
+  FUNCTOR2D(BallastMat, BallastMat);
+  // clang-format off
 	YADE_CLASS_BASE_DOC(Ip2_BallastMat_BallastMat_BallastPhys,IPhysFunctor,"Creates :yref:`BallastPhys` from two :yref:`BallastMat` (railcosim): equivalent properties (Irazábal eq. 3.27; spheres use their radius, other shapes count as flat walls; clump members use their clump's mass), damping ratio from restitution, the normal law from the roughness attributes, μ0 = tan(min friction angle), stress-dependent friction for members of different clumps, and the rolling arm.");
-	// clang-format on
+  // clang-format on
 };
 REGISTER_SERIALIZABLE(Ip2_BallastMat_BallastMat_BallastPhys);
 
 class Law2_ScGeom_BallastPhys_Ballast : public LawFunctor {
 public:
-	bool go(shared_ptr<IGeom>& geometry, shared_ptr<IPhys>& physics, Interaction* interaction) override;
-	FUNCTOR2D(ScGeom, BallastPhys);
-	// clang-format off
+  bool go(shared_ptr<IGeom>& geometry, shared_ptr<IPhys>& physics, Interaction* interaction) override;
+  FUNCTOR2D(ScGeom, BallastPhys);
+  // clang-format off
 	YADE_CLASS_BASE_DOC_ATTRS(Law2_ScGeom_BallastPhys_Ballast,LawFunctor,"Ballast contact law (railcosim): gathers the contact kinematics from :yref:`ScGeom`, evaluates the header-only kernels (normal law + viscous damping + incremental tangential force with unloading correction + Coulomb cap with optional stress-dependent μ; docs/contact-models.md) and applies the forces. No attractive normal force.",
 		((bool,neverErase,false,,"Keep interactions whose overlap became negative (forces set to zero) instead of erasing them, e.g. when another law still needs them."))
 	);
-	// clang-format on
+  // clang-format on
 };
 REGISTER_SERIALIZABLE(Law2_ScGeom_BallastPhys_Ballast);
 

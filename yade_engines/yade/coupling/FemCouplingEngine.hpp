@@ -16,19 +16,19 @@
 namespace railcosim {
 class DemParticipant;
 class DemCouplingScheme;
-}
+} // namespace railcosim
 
 namespace yade {
 
 class FemCouplingEngine : public GlobalEngine {
 public:
-	void action() override;
-	void connect();
-	void finalize();
-	Real femTimeStepPy() const { return femDt; }
-	virtual ~FemCouplingEngine();
+  void action() override;
+  void connect();
+  void finalize();
+  Real femTimeStepPy() const { return femDt; }
+  virtual ~FemCouplingEngine();
 
-	// clang-format off
+  // clang-format off
 	YADE_CLASS_BASE_DOC_ATTRS_CTOR_PY(FemCouplingEngine, GlobalEngine,
 		"Couples this scene with a FreeFEM structure through the railcosim bridge (ZeroMQ). At connection the FEM "
 		"participant sends its interface surface (nodes + triangles); the engine inserts one non-dynamic :yref:`Facet` "
@@ -90,30 +90,30 @@ public:
 		.def("connect", &FemCouplingEngine::connect, "Handshake with the FEM participant now (otherwise done at the first step): receives the interface mesh, inserts the facets, sets O.dt.")
 		.def("finalize", &FemCouplingEngine::finalize, "Tell the FEM participant that the run is over (it then writes its results and exits). Idempotent.")
 	);
-	// clang-format on
-	DECLARE_LOGGER;
+  // clang-format on
+  DECLARE_LOGGER;
 
 private:
-	void placeSurface(Real tau, bool beforeIntegrator);
-	void accumulateStep();
-	bool meshContacts() const;
-	bool exchange(); // false: the scheme repeats the window
-	void saveCheckpoint();
-	void restoreCheckpoint();
+  void placeSurface(Real tau, bool beforeIntegrator);
+  void accumulateStep();
+  bool meshContacts() const;
+  bool exchange(); // false: the scheme repeats the window
+  void saveCheckpoint();
+  void restoreCheckpoint();
 
-	std::shared_ptr<railcosim::DemParticipant>    participant;
-	std::shared_ptr<railcosim::DemCouplingScheme> coupling;     // orders the messages, moves the surface, judges windows
-	FacetSurface                                  facets;       // contactModel 'facets'
-	shared_ptr<FemSurfaceContactEngine>           meshContact;  // contactModel 'meshContacts'
-	std::vector<double>                           forceSum;     // for averageForces
-	std::vector<double>                           stepForces;   // nodal forces of the current DEM step
-	std::vector<double>                           surfacePositions, surfaceVelocities; // flat copies of nodePositions/nodeVelocities
-	long                                          stepsInWindow  = 0;
-	bool                                          surfaceTouched = false; // any interface force during this pass
-	// What a repeated window restores: the scene, and this engine's own sums and contact history.
-	SceneCheckpoint                                            sceneCheckpoint;
-	Real                                                       savedWorkDem = 0, savedWorkFem = 0;
-	std::shared_ptr<const FemSurfaceContactEngine::History>    savedHistory;
+  std::shared_ptr<railcosim::DemParticipant> participant;
+  std::shared_ptr<railcosim::DemCouplingScheme> coupling;  // orders the messages, moves the surface, judges windows
+  FacetSurface facets;                                     // contactModel 'facets'
+  shared_ptr<FemSurfaceContactEngine> meshContact;         // contactModel 'meshContacts'
+  std::vector<double> forceSum;                            // for averageForces
+  std::vector<double> stepForces;                          // nodal forces of the current DEM step
+  std::vector<double> surfacePositions, surfaceVelocities; // flat copies of nodePositions/nodeVelocities
+  long stepsInWindow = 0;
+  bool surfaceTouched = false; // any interface force during this pass
+  // What a repeated window restores: the scene, and this engine's own sums and contact history.
+  SceneCheckpoint sceneCheckpoint;
+  Real savedWorkDem = 0, savedWorkFem = 0;
+  std::shared_ptr<const FemSurfaceContactEngine::History> savedHistory;
 };
 REGISTER_SERIALIZABLE(FemCouplingEngine);
 

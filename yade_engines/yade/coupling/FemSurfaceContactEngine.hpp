@@ -15,31 +15,31 @@ namespace railcosim::kernels {
 class SurfaceTopology;
 class SurfaceTriangleGrid;
 struct SurfaceContact;
-}
+} // namespace railcosim::kernels
 
 namespace yade {
 
 class FemSurfaceContactEngine : public GlobalEngine {
 public:
-	struct ContactHistory;
-	using History = std::map<Body::id_t, std::vector<ContactHistory>>;
+  struct ContactHistory;
+  using History = std::map<Body::id_t, std::vector<ContactHistory>>;
 
-	void action() override;
-	/// Throws std::invalid_argument for a surface material without moduli and friction, or a restitution outside [0, 1].
-	void checkSettings() const;
-	/// Binds the engine to an interface mesh (triangles as node indices, 3 per triangle; reference coordinates,
-	/// 3 per node, for the search grid's cell size). Checks the surface material.
-	void attach(const std::vector<int32_t>& triangles, const std::vector<double>& coordinates);
-	/// Where the surface is for the next action(): nodal positions [m] and velocities [m/s], 3 per node. The
-	/// vectors must outlive that call.
-	void setSurface(const std::vector<double>& positions, const std::vector<double>& velocities);
-	/// Nodal forces on the surface [N] (3 per node) of the last action().
-	const std::vector<double>& nodalForces() const { return nodal; }
-	/// Tangential history of the contacts (replaced, never mutated, at every action(): a snapshot is a pointer).
-	std::shared_ptr<const History> history() const { return contactHistory; }
-	void                           restoreHistory(std::shared_ptr<const History> snapshot) { contactHistory = std::move(snapshot); }
+  void action() override;
+  /// Throws std::invalid_argument for a surface material without moduli and friction, or a restitution outside [0, 1].
+  void checkSettings() const;
+  /// Binds the engine to an interface mesh (triangles as node indices, 3 per triangle; reference coordinates,
+  /// 3 per node, for the search grid's cell size). Checks the surface material.
+  void attach(const std::vector<int32_t>& triangles, const std::vector<double>& coordinates);
+  /// Where the surface is for the next action(): nodal positions [m] and velocities [m/s], 3 per node. The
+  /// vectors must outlive that call.
+  void setSurface(const std::vector<double>& positions, const std::vector<double>& velocities);
+  /// Nodal forces on the surface [N] (3 per node) of the last action().
+  const std::vector<double>& nodalForces() const { return nodal; }
+  /// Tangential history of the contacts (replaced, never mutated, at every action(): a snapshot is a pointer).
+  std::shared_ptr<const History> history() const { return contactHistory; }
+  void restoreHistory(std::shared_ptr<const History> snapshot) { contactHistory = std::move(snapshot); }
 
-	// clang-format off
+  // clang-format off
 	YADE_CLASS_BASE_DOC_ATTRS(FemSurfaceContactEngine, GlobalEngine,
 		"Contacts of spherical particles (and clump members) with the FE interface surface of a :yref:`FemCouplingEngine` "
 		"whose :yref:`contactModel<FemCouplingEngine.contactModel>` is ``meshContacts``: one contact per touching surface "
@@ -53,15 +53,15 @@ public:
 		((Real, restitution, 0.5, , "Coefficient of restitution of particle-surface impacts [-], turned into a Hertzian damping ratio."))
 		((long, surfaceContacts, 0, Attr::readonly, "Number of particle-surface contacts at the last step."))
 	);
-	// clang-format on
+  // clang-format on
 
 private:
-	std::shared_ptr<railcosim::kernels::SurfaceTopology>     topology;
-	std::shared_ptr<railcosim::kernels::SurfaceTriangleGrid> grid;
-	std::shared_ptr<const History>                           contactHistory;
-	const std::vector<double>*                               positions  = nullptr;
-	const std::vector<double>*                               velocities = nullptr;
-	std::vector<double>                                      nodal;
+  std::shared_ptr<railcosim::kernels::SurfaceTopology> topology;
+  std::shared_ptr<railcosim::kernels::SurfaceTriangleGrid> grid;
+  std::shared_ptr<const History> contactHistory;
+  const std::vector<double>* positions = nullptr;
+  const std::vector<double>* velocities = nullptr;
+  std::vector<double> nodal;
 };
 REGISTER_SERIALIZABLE(FemSurfaceContactEngine);
 

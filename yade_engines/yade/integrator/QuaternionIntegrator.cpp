@@ -12,142 +12,139 @@ namespace yade {
 YADE_PLUGIN((QuaternionIntegrator));
 
 namespace {
-	namespace kernels = railcosim::kernels;
+namespace kernels = railcosim::kernels;
 
-	kernels::Vec3 toKernel(const Vector3r& v) { return kernels::Vec3 { double(v[0]), double(v[1]), double(v[2]) }; }
-	Vector3r      fromKernel(const kernels::Vec3& v) { return Vector3r(v.x, v.y, v.z); }
-	kernels::Quaternion toKernel(const Quaternionr& q) { return kernels::Quaternion { double(q.w()), double(q.x()), double(q.y()), double(q.z()) }; }
-	Quaternionr         fromKernel(const kernels::Quaternion& q) { return Quaternionr(q.w, q.x, q.y, q.z); }
+kernels::Vec3 toKernel(const Vector3r& v) { return kernels::Vec3{double(v[0]), double(v[1]), double(v[2])}; }
+Vector3r fromKernel(const kernels::Vec3& v) { return Vector3r(v.x, v.y, v.z); }
+kernels::Quaternion toKernel(const Quaternionr& q) {
+  return kernels::Quaternion{double(q.w()), double(q.x()), double(q.y()), double(q.z())};
+}
+Quaternionr fromKernel(const kernels::Quaternion& q) { return Quaternionr(q.w, q.x, q.y, q.z); }
 
-	// Cundall's non-viscous damping on one vector (as NewtonIntegrator::cundallDamp1st): each component is
-	// reduced by the factor (1 − damping) when it does work on the motion, increased when it opposes it.
-	void cundallDamp(Vector3r& load, const Vector3r& velocity, Real damping)
-	{
-		for (int i = 0; i < 3; ++i)
-			load[i] *= 1 - damping * math::sign(load[i] * velocity[i]);
-	}
-
-	[[noreturn]] void throwBadBody(Body::id_t id, const char* what, const Vector3r& value)
-	{
-		std::ostringstream message;
-		message << "QuaternionIntegrator: body #" << id << " has " << what << " " << value.transpose()
-		        << " but some of its degrees of freedom are free; give it positive mass and inertia, or block them "
-		           "(State.blockedDOFs) or set Body.dynamic=False";
-		throw std::runtime_error(message.str());
-	}
+// Cundall's non-viscous damping on one vector (as NewtonIntegrator::cundallDamp1st): each component is
+// reduced by the factor (1 − damping) when it does work on the motion, increased when it opposes it.
+void cundallDamp(Vector3r& load, const Vector3r& velocity, Real damping) {
+  for (int i = 0; i < 3; ++i) load[i] *= 1 - damping * math::sign(load[i] * velocity[i]);
 }
 
-void QuaternionIntegrator::integrateBody(const shared_ptr<Body>& b, kernels::RotationScheme rotationScheme)
-{
-	State*            state = b->state.get();
-	const Body::id_t& id    = b->getId();
-	const Real&       dt    = scene->dt;
-	BodySlot&         slot  = slots[id];
-	Vector3r          force = Vector3r::Zero();
-	Vector3r          torque = Vector3r::Zero();
-	if (b->isClump()) {
-		// F = Σ F_i, T = Σ T_i + Σ r_i × F_i (eqs. 5.9–5.10); member torques include rolling friction.
-		b->shape->cast<Clump>().addForceTorqueFromMembers(state, scene, force, torque);
-	}
-	force += scene->forces.getForce(id);
-	torque += scene->forces.getTorque(id);
+[[noreturn]] void throwBadBody(Body::id_t id, const char* what, const Vector3r& value) {
+  std::ostringstream message;
+  message << "QuaternionIntegrator: body #" << id << " has " << what << " " << value.transpose()
+          << " but some of its degrees of freedom are free; give it positive mass and inertia, or block them "
+             "(State.blockedDOFs) or set Body.dynamic=False";
+  throw std::runtime_error(message.str());
+}
+} // namespace
 
-	// A user (or another engine) who sets pos/vel/ori/angVel between steps restarts the body's integration
-	// from that state; otherwise the scheme would overwrite the change with its stored half step.
-	if (slot.predicted
-	    && (state->pos != slot.writtenPos || state->vel != slot.writtenVel || state->angVel != slot.writtenAngVel
-	        || state->ori.coeffs() != slot.writtenOri.coeffs())) {
-		slot.predicted = false;
-	}
-	const unsigned blocked      = state->blockedDOFs;
-	const bool     translational = (blocked & (State::DOF_X | State::DOF_Y | State::DOF_Z)) != (State::DOF_X | State::DOF_Y | State::DOF_Z);
-	const bool     rotational    = (blocked & State::DOF_RXRYRZ) != State::DOF_RXRYRZ;
-	if (translational && !(state->mass > 0)) throwBadBody(id, "mass", Vector3r::Constant(state->mass));
-	if (rotational && !(state->inertia.minCoeff() > 0)) throwBadBody(id, "inertia", state->inertia);
+void QuaternionIntegrator::integrateBody(const shared_ptr<Body>& b, kernels::RotationScheme rotationScheme) {
+  State* state = b->state.get();
+  const Body::id_t& id = b->getId();
+  const Real& dt = scene->dt;
+  BodySlot& slot = slots[id];
+  Vector3r force = Vector3r::Zero();
+  Vector3r torque = Vector3r::Zero();
+  if (b->isClump()) {
+    // F = Σ F_i, T = Σ T_i + Σ r_i × F_i (eqs. 5.9–5.10); member torques include rolling friction.
+    b->shape->cast<Clump>().addForceTorqueFromMembers(state, scene, force, torque);
+  }
+  force += scene->forces.getForce(id);
+  torque += scene->forces.getTorque(id);
 
-	// Translation, velocity Verlet (eqs. 3.44–3.48). Blocked components keep their prescribed velocity.
-	Vector3r acceleration = Vector3r::Zero();
-	for (int i = 0; i < 3; ++i)
-		if (!(blocked & State::axisDOF(i, false))) acceleration[i] = force[i] / state->mass + gravity[i];
-	if (damping != 0 && state->isDamped) cundallDamp(acceleration, state->vel, damping);
-	if (slot.predicted) state->vel += 0.5 * slot.timeStep * acceleration; // corrector of the previous step
-	state->vel += 0.5 * dt * acceleration;                                 // predictor of this step
-	state->pos += dt * state->vel;
+  // A user (or another engine) who sets pos/vel/ori/angVel between steps restarts the body's integration
+  // from that state; otherwise the scheme would overwrite the change with its stored half step.
+  if (slot.predicted && (state->pos != slot.writtenPos || state->vel != slot.writtenVel ||
+                         state->angVel != slot.writtenAngVel || state->ori.coeffs() != slot.writtenOri.coeffs())) {
+    slot.predicted = false;
+  }
+  const unsigned blocked = state->blockedDOFs;
+  const bool translational =
+      (blocked & (State::DOF_X | State::DOF_Y | State::DOF_Z)) != (State::DOF_X | State::DOF_Y | State::DOF_Z);
+  const bool rotational = (blocked & State::DOF_RXRYRZ) != State::DOF_RXRYRZ;
+  if (translational && !(state->mass > 0)) throwBadBody(id, "mass", Vector3r::Constant(state->mass));
+  if (rotational && !(state->inertia.minCoeff() > 0)) throwBadBody(id, "inertia", state->inertia);
 
-	// Rotation.
-	if (damping != 0 && state->isDamped) cundallDamp(torque, state->angVel, damping);
-	const bool asphericalFree = b->isAspherical() && (blocked & State::DOF_RXRYRZ) == State::DOF_NONE;
-	if (asphericalFree) {
-		const kernels::Vec3 inertia = toKernel(state->inertia);
-		const kernels::Vec3 torqueWorld = toKernel(torque);
-		if (slot.predicted) {
-			kernels::correctRotation(rotationScheme, slot.rotation, inertia, torqueWorld, slot.timeStep);
-		} else {
-			slot.rotation = kernels::makeRotationState(toKernel(state->ori), toKernel(state->angVel), inertia);
-		}
-		kernels::predictRotation(rotationScheme, slot.rotation, inertia, torqueWorld, dt);
-		state->ori    = fromKernel(slot.rotation.orientation);
-		state->angVel = fromKernel(slot.rotation.angularVelocity);
-		state->angMom = fromKernel(slot.rotation.angularMomentum);
-	} else {
-		// Spheres (isotropic inertia) and bodies with blocked rotations: ω̇ = T/I per world axis (eq. 3.31),
-		// velocity-Verlet half kicks, orientation advanced by the mid-step rotation (eqs. 3.49–3.53).
-		Vector3r angularAcceleration = Vector3r::Zero();
-		for (int i = 0; i < 3; ++i)
-			if (!(blocked & State::axisDOF(i, true))) angularAcceleration[i] = torque[i] / state->inertia[i];
-		if (slot.predicted) state->angVel += 0.5 * slot.timeStep * angularAcceleration;
-		state->angVel += 0.5 * dt * angularAcceleration;
-		const kernels::Quaternion increment = kernels::incrementalRotation(toKernel(state->angVel), dt);
-		state->ori = fromKernel(kernels::normalized(increment * toKernel(state->ori)));
-	}
+  // Translation, velocity Verlet (eqs. 3.44–3.48). Blocked components keep their prescribed velocity.
+  Vector3r acceleration = Vector3r::Zero();
+  for (int i = 0; i < 3; ++i)
+    if (!(blocked & State::axisDOF(i, false))) acceleration[i] = force[i] / state->mass + gravity[i];
+  if (damping != 0 && state->isDamped) cundallDamp(acceleration, state->vel, damping);
+  if (slot.predicted) state->vel += 0.5 * slot.timeStep * acceleration; // corrector of the previous step
+  state->vel += 0.5 * dt * acceleration;                                // predictor of this step
+  state->pos += dt * state->vel;
 
-	slot.predicted     = true;
-	slot.timeStep      = dt;
-	slot.writtenPos    = state->pos;
-	slot.writtenVel    = state->vel;
-	slot.writtenAngVel = state->angVel;
-	slot.writtenOri    = state->ori;
+  // Rotation.
+  if (damping != 0 && state->isDamped) cundallDamp(torque, state->angVel, damping);
+  const bool asphericalFree = b->isAspherical() && (blocked & State::DOF_RXRYRZ) == State::DOF_NONE;
+  if (asphericalFree) {
+    const kernels::Vec3 inertia = toKernel(state->inertia);
+    const kernels::Vec3 torqueWorld = toKernel(torque);
+    if (slot.predicted) {
+      kernels::correctRotation(rotationScheme, slot.rotation, inertia, torqueWorld, slot.timeStep);
+    } else {
+      slot.rotation = kernels::makeRotationState(toKernel(state->ori), toKernel(state->angVel), inertia);
+    }
+    kernels::predictRotation(rotationScheme, slot.rotation, inertia, torqueWorld, dt);
+    state->ori = fromKernel(slot.rotation.orientation);
+    state->angVel = fromKernel(slot.rotation.angularVelocity);
+    state->angMom = fromKernel(slot.rotation.angularMomentum);
+  } else {
+    // Spheres (isotropic inertia) and bodies with blocked rotations: ω̇ = T/I per world axis (eq. 3.31),
+    // velocity-Verlet half kicks, orientation advanced by the mid-step rotation (eqs. 3.49–3.53).
+    Vector3r angularAcceleration = Vector3r::Zero();
+    for (int i = 0; i < 3; ++i)
+      if (!(blocked & State::axisDOF(i, true))) angularAcceleration[i] = torque[i] / state->inertia[i];
+    if (slot.predicted) state->angVel += 0.5 * slot.timeStep * angularAcceleration;
+    state->angVel += 0.5 * dt * angularAcceleration;
+    const kernels::Quaternion increment = kernels::incrementalRotation(toKernel(state->angVel), dt);
+    state->ori = fromKernel(kernels::normalized(increment * toKernel(state->ori)));
+  }
 
-	if (scene->trackEnergy) {
-		const Real translationEnergy = 0.5 * state->mass * state->vel.squaredNorm();
-		const Real rotationEnergy    = asphericalFree
-		           ? kernels::rotationalKineticEnergy(toKernel(state->ori), toKernel(state->inertia), toKernel(state->angVel))
-		           : 0.5 * state->angVel.dot(state->inertia.cwiseProduct(state->angVel));
-		if (!kinSplit) scene->energy->add(translationEnergy + rotationEnergy, "kinetic", kinEnergyIx, true);
-		else {
-			scene->energy->add(translationEnergy, "kinTrans", kinEnergyTransIx, true);
-			scene->energy->add(rotationEnergy, "kinRot", kinEnergyRotIx, true);
-		}
-		scene->energy->add(-gravity.dot(state->vel) * state->mass * dt, "gravWork", fieldWorkIx, false);
-	}
-	saveMaximaDisplacement(b);
-	if (b->isClump()) Clump::moveMembers(b, scene, this);
+  slot.predicted = true;
+  slot.timeStep = dt;
+  slot.writtenPos = state->pos;
+  slot.writtenVel = state->vel;
+  slot.writtenAngVel = state->angVel;
+  slot.writtenOri = state->ori;
+
+  if (scene->trackEnergy) {
+    const Real translationEnergy = 0.5 * state->mass * state->vel.squaredNorm();
+    const Real rotationEnergy =
+        asphericalFree
+            ? kernels::rotationalKineticEnergy(toKernel(state->ori), toKernel(state->inertia), toKernel(state->angVel))
+            : 0.5 * state->angVel.dot(state->inertia.cwiseProduct(state->angVel));
+    if (!kinSplit)
+      scene->energy->add(translationEnergy + rotationEnergy, "kinetic", kinEnergyIx, true);
+    else {
+      scene->energy->add(translationEnergy, "kinTrans", kinEnergyTransIx, true);
+      scene->energy->add(rotationEnergy, "kinRot", kinEnergyRotIx, true);
+    }
+    scene->energy->add(-gravity.dot(state->vel) * state->mass * dt, "gravWork", fieldWorkIx, false);
+  }
+  saveMaximaDisplacement(b);
+  if (b->isClump()) Clump::moveMembers(b, scene, this);
 }
 
-void QuaternionIntegrator::action()
-{
-	if (scene->isPeriodic) {
-		throw std::runtime_error("QuaternionIntegrator: periodic cells are not supported (no homothetic cell motion); "
-		                         "use NewtonIntegrator for periodic scenes");
-	}
-	const kernels::RotationScheme rotationScheme = kernels::rotationSchemeFromName(scheme);
-	scene->forces.sync();
-	if (slots.size() != scene->bodies->size()) slots.resize(scene->bodies->size());
-	maxVelocitySq = 0;
+void QuaternionIntegrator::action() {
+  if (scene->isPeriodic) {
+    throw std::runtime_error(
+        "QuaternionIntegrator: periodic cells are not supported (no homothetic cell motion); "
+        "use NewtonIntegrator for periodic scenes");
+  }
+  const kernels::RotationScheme rotationScheme = kernels::rotationSchemeFromName(scheme);
+  scene->forces.sync();
+  if (slots.size() != scene->bodies->size()) slots.resize(scene->bodies->size());
+  maxVelocitySq = 0;
 #ifdef YADE_OPENMP
-	for (Real& threadMax : threadMaxVelocitySq)
-		threadMax = 0;
+  for (Real& threadMax : threadMaxVelocitySq) threadMax = 0;
 #endif
-	YADE_PARALLEL_FOREACH_BODY_BEGIN(const shared_ptr<Body>& b, scene->bodies)
-	{
-		if (b->isClumpMember()) continue; // moved with their clump
-		if ((mask > 0) && !b->maskCompatible(mask)) continue;
-		integrateBody(b, rotationScheme);
-	}
-	YADE_PARALLEL_FOREACH_BODY_END();
+  YADE_PARALLEL_FOREACH_BODY_BEGIN(const shared_ptr<Body>& b, scene->bodies) {
+    if (b->isClumpMember()) continue; // moved with their clump
+    if ((mask > 0) && !b->maskCompatible(mask)) continue;
+    integrateBody(b, rotationScheme);
+  }
+  YADE_PARALLEL_FOREACH_BODY_END();
 #ifdef YADE_OPENMP
-	for (const Real& threadMax : threadMaxVelocitySq)
-		maxVelocitySq = math::max(maxVelocitySq, threadMax);
+  for (const Real& threadMax : threadMaxVelocitySq) maxVelocitySq = math::max(maxVelocitySq, threadMax);
 #endif
 }
 

@@ -20,29 +20,29 @@ displacement it needs; NewtonIntegrator's own rotation options (exactAsphericalR
 ignored. Periodic cells are not supported.
 */
 class QuaternionIntegrator : public NewtonIntegrator {
-	// Per-body data that must survive from one call (predict) to the next (correct).
-	struct BodySlot {
-		bool                                    predicted = false;
-		Real                                    timeStep  = 0;
-		railcosim::kernels::RotationState       rotation{};
-		Vector3r                                writtenPos{Vector3r::Zero()};
-		Vector3r                                writtenVel{Vector3r::Zero()};
-		Vector3r                                writtenAngVel{Vector3r::Zero()};
-		Quaternionr                             writtenOri{Quaternionr::Identity()};
-	};
-	std::vector<BodySlot> slots;
+  // Per-body data that must survive from one call (predict) to the next (correct).
+  struct BodySlot {
+    bool predicted = false;
+    Real timeStep = 0;
+    railcosim::kernels::RotationState rotation{};
+    Vector3r writtenPos{Vector3r::Zero()};
+    Vector3r writtenVel{Vector3r::Zero()};
+    Vector3r writtenAngVel{Vector3r::Zero()};
+    Quaternionr writtenOri{Quaternionr::Identity()};
+  };
+  std::vector<BodySlot> slots;
 
-	void integrateBody(const shared_ptr<Body>& b, railcosim::kernels::RotationScheme rotationScheme);
+  void integrateBody(const shared_ptr<Body>& b, railcosim::kernels::RotationScheme rotationScheme);
 
 public:
-	void action() override;
-	// clang-format off
+  void action() override;
+  // clang-format off
 	YADE_CLASS_BASE_DOC_ATTRS_CTOR(QuaternionIntegrator,NewtonIntegrator,"Integrates the motion of spheres, clumps (sphere clusters) and facets like :yref:`NewtonIntegrator`, with velocity Verlet for translation and, for :yref:`aspherical<Body.aspherical>` bodies with free rotation, the Zhao–van Wachem quaternion predictor–corrector (default), quaternion RK4 with angular momentum as state, or the direct scheme (comparison only) — Irazábal 2017, §5.3.2. Bodies with any rotational DOF blocked, and non-aspherical bodies, rotate with the velocity-Verlet update of spheres. Clump forces and torques are assembled from members (eqs. 5.9–5.10), member torques (e.g. rolling friction) included. Attributes inherited from NewtonIntegrator other than gravity, damping, mask and kinSplit are not used.",
 		((std::string,scheme,"zhaoVanWachem",,"Rotation scheme for aspherical bodies: ``'zhaoVanWachem'`` (recommended), ``'rk4'`` or ``'direct'`` (inaccurate; for comparison only)."))
 		,
 		/*ctor*/ damping = 0;
 	);
-	// clang-format on
+  // clang-format on
 };
 REGISTER_SERIALIZABLE(QuaternionIntegrator);
 

@@ -16,12 +16,12 @@ namespace yade {
 
 class PolyhedraGpuEngine : public GlobalEngine {
 public:
-	void action() override;
-	void initialize();
-	void addStone(Body::id_t id, const std::vector<Vector3r>& vertices);
-	virtual ~PolyhedraGpuEngine();
+  void action() override;
+  void initialize();
+  void addStone(Body::id_t id, const std::vector<Vector3r>& vertices);
+  virtual ~PolyhedraGpuEngine();
 
-	// clang-format off
+  // clang-format off
 	YADE_CLASS_BASE_DOC_ATTRS_CTOR_PY(PolyhedraGpuEngine, GlobalEngine,
 		"Advances the scene's polyhedral stones with railcosim's dilated-polyhedra DEM. A stone is any YADE body (a "
 		":yref:`Sphere` of the stone's circumradius is convenient for display and output) registered with "
@@ -52,17 +52,17 @@ public:
 		.def("initialize", &PolyhedraGpuEngine::initialize, "Hand the stones and walls to the polyhedra system now (otherwise done at the first step).")
 		.def("addStone", &PolyhedraGpuEngine::addStone, (py::arg("id"), py::arg("vertices")), "Register body *id* as a stone whose convex core has *vertices* (list of Vector3, body frame, m). Before the first step only.")
 	);
-	// clang-format on
-	DECLARE_LOGGER;
+  // clang-format on
+  DECLARE_LOGGER;
 
 private:
-	void syncBack();
+  void syncBack();
 
-	std::shared_ptr<railcosim::polyhedra::PolyhedraSystem> system;
-	std::vector<Body::id_t>                                stoneIds;
-	std::vector<std::vector<Vector3r>>                     stoneCores;      // registered core vertices, same order
-	std::vector<Quaternionr>                               principalToBody; // rotation from the stone's principal frame to the YADE body frame
-	std::vector<Vector3r>                                  centroidInBody;  // stone centroid in the YADE body frame
+  std::shared_ptr<railcosim::polyhedra::PolyhedraSystem> system;
+  std::vector<Body::id_t> stoneIds;
+  std::vector<std::vector<Vector3r>> stoneCores; // registered core vertices, same order
+  std::vector<Quaternionr> principalToBody;      // rotation from the stone's principal frame to the YADE body frame
+  std::vector<Vector3r> centroidInBody;          // stone centroid in the YADE body frame
 };
 REGISTER_SERIALIZABLE(PolyhedraGpuEngine);
 

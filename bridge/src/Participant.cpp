@@ -6,6 +6,7 @@
 #include "com/Channel.hpp"
 #include "config/ParticipantConfig.hpp"
 #include "cplscheme/MessageOrder.hpp"
+#include "io/Recording.hpp"
 #include "protocol/Message.hpp"
 #include "railcosim/CouplingScheme.hpp"
 
@@ -73,6 +74,18 @@ public:
       if (const char* fromEnvironment = std::getenv("RAILCOSIM_BRIDGE_TOKEN")) options.token = fromEnvironment;
     }
     options.maxMessageBytes = maxIncomingBytes;
+    std::string recordPath = config_.recordPath;
+    if (recordPath.empty()) {
+      if (const char* fromEnvironment = std::getenv("RAILCOSIM_BRIDGE_RECORD")) recordPath = fromEnvironment;
+    }
+    if (!recordPath.empty()) {
+      try {
+        recorder_ = std::make_unique<io::RecordingWriter>(recordPath, role_ == protocol::Role::Fem ? "fem" : "dem");
+      } catch (const Error& error) {
+        throw Error(self() + ": " + error.what());
+      }
+      log(LogLevel::Info, self() + ": recording every interface message to " + recordPath);
+    }
     // Long enough to flush a final message to a live peer, short enough that closing never hangs.
     options.lingerMilliseconds = static_cast<int>(std::min(1000.0, config_.timeoutSeconds * 1000.0));
     try {
@@ -86,6 +99,23 @@ public:
     }
   }
 
+  /// With a recording open: appends a message this side sent or received (before it is decoded).
+  void record(bool sent, const std::vector<std::uint8_t>& bytes) {
+    if (recorder_) recorder_->write(sent, bytes.data(), bytes.size());
+  }
+  void record(bool sent, const com::Frame& frame) {
+    if (recorder_) recorder_->write(sent, frame.data(), frame.size());
+  }
+  /// For the closing messages: a recording that fails then is reported, not thrown (called from destructors).
+  std::vector<std::uint8_t> recordQuietly(std::vector<std::uint8_t> bytes) {
+    try {
+      record(true, bytes);
+    } catch (const std::exception& error) {
+      log(LogLevel::Warning, self() + ": " + error.what());
+    }
+    return bytes;
+  }
+
   void requireUsable(const char* call) const {
     if (closed_) throw Error(self() + ": " + call + " called after the run ended (" + closedBecause_ + ")");
     if (!handshakeDone_) throw Error(self() + ": " + call + " called before initialize() completed");
@@ -97,6 +127,7 @@ public:
   void send(std::vector<std::uint8_t>&& bytes, const std::string& what, bool countAsExchange) {
     const std::size_t size = bytes.size();
     com::Timing timing;
+    record(true, bytes);
     const com::Status status = channel_->send(std::move(bytes), config_.timeoutSeconds, timing);
     statistics_.transferSeconds += timing.transferSeconds;
     statistics_.waitSeconds += timing.waitSeconds;
@@ -134,6 +165,7 @@ public:
     com::Frame frame;
     com::Timing timing;
     if (channel_->receive(frame, 0.0, timing) != com::Status::Ok) return false;
+    record(false, frame);
     protocol::Header header;
     try {
       header = protocol::decodeHeader(frame.data(), frame.size());
@@ -198,6 +230,7 @@ public:
       text << "; raise timeoutSeconds (now " << config_.timeoutSeconds << ") if it is just slow";
       throw PeerLostError(text.str());
     }
+    record(false, frame);
     const auto decodeStart = Clock::now();
     protocol::Header header;
     try {
@@ -285,7 +318,8 @@ public:
     if (channel_ && !closed_ && channel_->peerSeen() && !channel_->peerDisconnected()) {
       try {
         com::Timing timing;
-        channel_->send(protocol::encodeAbort(0, reason), std::min(config_.timeoutSeconds, 2.0), timing);
+        std::vector<std::uint8_t> abortBytes = recordQuietly(protocol::encodeAbort(0, reason));
+        channel_->send(std::move(abortBytes), std::min(config_.timeoutSeconds, 2.0), timing);
       } catch (const std::exception& error) {
         log(LogLevel::Warning, self() + ": could not send Abort to " + peerLabel() + ": " + error.what());
       }
@@ -308,8 +342,8 @@ public:
     if (channel_ && handshakeDone_ && !peerFinalized_ && !channel_->peerDisconnected()) {
       try {
         com::Timing timing;
-        const auto status =
-            channel_->send(protocol::encodeFinalize(window), std::min(config_.timeoutSeconds, 2.0), timing);
+        const auto status = channel_->send(recordQuietly(protocol::encodeFinalize(window)),
+                                           std::min(config_.timeoutSeconds, 2.0), timing);
         if (status != com::Status::Ok) {
           log(LogLevel::Info, self() + ": " + peerLabel() + " was gone before Finalize could be sent");
         }
@@ -400,6 +434,7 @@ private:
   std::string peerScheme_;
   std::unique_ptr<com::Channel> channel_;
   std::unique_ptr<cplscheme::MessageOrder> order_;
+  std::unique_ptr<io::RecordingWriter> recorder_; // RAILCOSIM_BRIDGE_RECORD or ParticipantConfig::recordPath
   BridgeStatistics statistics_;
   std::size_t nodeCount_ = 0;
   bool handshakeDone_ = false;

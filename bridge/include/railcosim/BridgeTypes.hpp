@@ -23,6 +23,9 @@ struct ParticipantConfig {
   std::string token;             // run secret shared by both sides (empty: the environment variable
                                  // RAILCOSIM_BRIDGE_TOKEN, else none); the FEM side admits only the first
                                  // participant presenting it, and binding a non-loopback tcp host needs one
+  std::string recordPath;        // file to record every interface message of the run into (empty: the
+                                 // environment variable RAILCOSIM_BRIDGE_RECORD, else none); railcosim_replay
+                                 // plays either side back from it
 };
 
 /// What the DEM side learns at the handshake.

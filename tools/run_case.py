@@ -333,6 +333,8 @@ def make_ipc_folder():
     return folder
 
 
+RECORDING_FILE = "interface.rec"  # --record: every interface message of the run (railcosim_replay reads it)
+
 class Run:
     """One run of a case, from its partial folder to the summary and the rename into place."""
 
@@ -356,9 +358,11 @@ class Run:
                 ipc_folder = make_ipc_folder()
                 self._write_parameters()
             self._run_coupled(ipc_folder, start)
-            if self.status == "ok":
+            # A replay checks one solver against a recording: the other's outputs, which the references
+            # and the post-processing read, do not exist.
+            if self.status == "ok" and not self._replayed_side():
                 self._run_references()
-            if self.status == "ok":
+            if self.status == "ok" and not self._replayed_side():
                 self._postprocess()
         except Stop as stop:
             self.stop = stop
@@ -416,11 +420,29 @@ class Run:
             else f"[run] endpoint {endpoint}; no time limit")
         commands = [("fem", self.case.fem_command(self.params, endpoint, self.partial)),
                     ("dem", self.case.dem_command(self.params, endpoint, self.partial))]
+        played = self._replayed_side()
+        if played:
+            # The recording stands in for one solver; the other runs live and is compared with its recorded answers.
+            recording = os.path.abspath(getattr(self.args, f"replay_{played}"))
+            replay = [os.path.join(os.environ.get("RAILCOSIM_BUILD", "build"), "bridge", "dummies", "railcosim_replay"),
+                      "--recording", recording, "--play", played, "--endpoint", endpoint]
+            commands = [(name, replay if name == played else argv) for name, argv in commands]
+            self.summary["replay"] = {"played": played, "recording": recording}
+            say(f"[run] replaying the {played} side from {recording}")
         for name, argv in commands:
-            if not self._start(self.solvers, name, argv, env):
+            solver_env = env
+            if self.args.record and name == "fem":
+                # The FEM side sees both directions; the file moves with the results folder.
+                solver_env = dict(env, RAILCOSIM_BRIDGE_RECORD=os.path.join(self.partial, RECORDING_FILE))
+                self.summary["recording"] = RECORDING_FILE
+            if not self._start(self.solvers, name, argv, solver_env):
                 return
         watch_pair(self.solvers, self.guard)
         self.coupled_wall = time.monotonic() - start
+        if played:
+            lines = [line for s in self.solvers if s.name == played for line in s.last_lines
+                     if line.startswith("railcosim_replay:")]
+            self.summary["replay"]["result"] = lines[-1] if lines else None
         # The likely cause first: a frozen solver, then one that failed by itself, then those the runner stopped.
         order = lambda s: 0 if (s.state_when_stopped or "").startswith("appears frozen") else 2 if s.stopped_by else 1
         problems = [s.failure() for s in sorted(self.solvers, key=order) if s.failure()]
@@ -428,6 +450,9 @@ class Run:
             self.status, self.error = "failed", "; ".join(problems)
         else:
             self._record_resolved()
+
+    def _replayed_side(self):
+        return "fem" if self.args.replay_fem else "dem" if self.args.replay_dem else None
 
     def _start(self, group, name, argv, env, echo=True):
         """Starts a solver into group (a signal waits until it is recorded there); False if it cannot start."""
@@ -561,6 +586,15 @@ def main(argv, guard):
     parser.add_argument("--out", help="results folder (default results/NAME or results/NAME-smoke)")
     parser.add_argument("--force", action="store_true", help="replace an existing results folder once this run finished")
     parser.add_argument("--set", action="append", default=[], metavar="KEY=VALUE", help="override a parameter")
+    parser.add_argument("--record", action="store_true",
+                        help=f"write every interface message (both directions, with times) to OUT/{RECORDING_FILE}")
+    replay = parser.add_mutually_exclusive_group()
+    replay.add_argument("--replay-fem", metavar="RECORDING",
+                        help="play the FEM side back from a recording; the DEM solver runs live and its forces are "
+                             "compared with the recorded ones (no post-processing)")
+    replay.add_argument("--replay-dem", metavar="RECORDING",
+                        help="play the DEM side back from a recording; the FEM solver runs live and its kinematics "
+                             "are compared with the recorded ones (no post-processing)")
     parser.add_argument("--time-limit", type=time_limit_argument, metavar="SECONDS",
                         help="wall-clock limit of the whole run (default: from the case, at least 600 s; 0: none)")
     args = parser.parse_args(argv)
@@ -578,6 +612,9 @@ def main(argv, guard):
     params["smoke"] = args.smoke
     params["case_dir"] = case_dir
 
+    for recording in (args.replay_fem, args.replay_dem):
+        if recording and not os.path.isfile(recording):
+            raise CaseError(f"no such recording: {recording} (made by ./railcosim run CASE --record)")
     out = os.path.abspath(args.out or os.path.join(os.getcwd(), "results", name + ("-smoke" if args.smoke else "")))
     if os.path.exists(out) and not args.force:
         raise CaseError(f"results folder {out} already exists; pass --force to replace it or --out to choose another")

@@ -2,7 +2,8 @@
 
 USAGE:   ./railcosim yade benchmarks/contact/law_cost.py [--side 22] [--steps 300] [--json PATH]
 OUTPUTS: a table (ns per contact-step of the whole InteractionLoop and of the law alone, ratio to stock
-         Hertz-Mindlin) and JSON records (default benchmarks/results/contact_law_cost.json).
+         Hertz-Mindlin); JSON records only with --json (`./railcosim bench contact` passes a path outside
+         the tracked tree unless --save asks for benchmarks/results/contact_law_cost.json).
 Scene: side^3 spheres (22^3 = 10,648) of radius 5 mm on a simple cubic lattice compressed by 0.2 % of the
 diameter, so every interior sphere has 6 contacts from the first step; no gravity and a tiny time step,
 so all laws see the same geometry. Timing uses YADE's engine timers; not a test.
@@ -16,8 +17,7 @@ import time
 parser = argparse.ArgumentParser()
 parser.add_argument("--side", type=int, default=22)
 parser.add_argument("--steps", type=int, default=300)
-parser.add_argument("--json", default=os.path.join(os.environ.get("RAILCOSIM_ROOT", "."), "benchmarks", "results",
-                                                   "contact_law_cost.json"))
+parser.add_argument("--json", default=None, help="also write the records to this file (none by default)")
 args = parser.parse_args(sys.argv[1:])
 
 radius, young, poisson, density = 0.005, 5e8, 0.25, 2600.0
@@ -79,7 +79,8 @@ for r in records:
     r["ratio_to_stock_mindlin_damped"] = r["interaction_loop_ns_per_contact"] / stock_damped["interaction_loop_ns_per_contact"]
     print(f"{r['law']:<92} {r['contacts']:>8} {r['interaction_loop_ns_per_contact']:>16.1f} "
           f"{r['ratio_to_stock_mindlin_damped']:>7.2f}")
-os.makedirs(os.path.dirname(os.path.abspath(args.json)), exist_ok=True)
-with open(args.json, "w") as f:
-    json.dump({"benchmark": "contact_law_cost", "threads": 1, "records": records}, f, indent=2)
-print("written", args.json)
+if args.json:
+    os.makedirs(os.path.dirname(os.path.abspath(args.json)), exist_ok=True)
+    with open(args.json, "w") as f:
+        json.dump({"benchmark": "contact_law_cost", "threads": 1, "records": records}, f, indent=2)
+    print("written", args.json)

@@ -8,7 +8,7 @@ as two uniform pressures on 0.15 x 0.2 m rail-seat patches of its top face. box_
 rail seat and at mid-length are compared with a finite free-free beam on an elastic foundation loaded by the same
 two patch line loads q = P / (2 c) over c = 0.15 m:
 
-  Euler-Bernoulli   EI w'''' + k B w = q(x)             (Hetenyi 1946, ch. II-III: general solution
+  Euler-Bernoulli   EI w'''' + k B w = q(x)             (Hetenyi 1946, Beams on Elastic Foundation: general solution
                                                           w = e^(lx)(C1 cos lx + C2 sin lx) + e^(-lx)(C3 cos lx + C4 sin lx)
                                                           + q / (k B) per load segment, l = (k B / (4 EI))^(1/4);
                                                           free ends M = V = 0, continuity at the patch edges)
@@ -22,7 +22,10 @@ checked here against Hetenyi's explicit formulas for a centre point load on a fr
   w(L/2) = P l / (2 k B) (cosh lL + cos lL + 2) / (sinh lL + sin lL),
   w(0)   = 2 P l / (k B) cosh(lL/2) cos(lL/2) / (sinh lL + sin lL).
 The area mean of the settlement is exact on any mesh (vertical equilibrium: P = k B L mean(w)) and is reported as a
-check of the load and foundation assembly.
+check of the load and foundation assembly. A patch load on the top face reaches the bed spread through the depth,
+which a line load at the beam axis is not: the beam values with the patch widened by H/2 and by H are printed as the
+bracket of that model difference. The chosen mesh (CHOSEN) is checked by the CTest freefem_sleeper_winkler
+(tests/freefem/check_box_elastodynamics.py), which imports this module's closed form.
 
 Usage:
     /usr/bin/python3 freefem_scripts/studies/sleeper_convergence.py --plugin-dir BUILD/freefem_scripts/plugin
@@ -112,11 +115,14 @@ def patch_line_loads(total_load):
     return [(c - SLEEPER_START - PATCH_LENGTH / 2, c - SLEEPER_START + PATCH_LENGTH / 2, q) for c in RAIL_SEATS]
 
 
-def closed_form(modulus, total_load=PEAK_LOAD):
-    """Deflections [m, downward] under the first rail seat and at mid-length: (Euler-Bernoulli, Timoshenko)."""
+def closed_form(modulus, total_load=PEAK_LOAD, patch_length=PATCH_LENGTH):
+    """Deflections [m, downward] under the first rail seat and at mid-length: (Euler-Bernoulli, Timoshenko).
+    `patch_length` other than the rail seat's spreads the same load over a longer stretch (load spread through
+    the depth)."""
     bending, shear = beam_properties()
     points = [RAIL_SEATS[0] - SLEEPER_START, LENGTH / 2]
-    loads = patch_line_loads(total_load)
+    loads = [(0.5 * (start + end) - patch_length / 2, 0.5 * (start + end) + patch_length / 2,
+              q * PATCH_LENGTH / patch_length) for start, end, q in patch_line_loads(total_load)]
     return (beam_on_foundation(points, modulus, loads, bending_stiffness=bending),
             beam_on_foundation(points, modulus, loads, shear_stiffness=shear, bending_stiffness=bending))
 
@@ -218,6 +224,14 @@ def main():
     say("Closed forms (bottom = beam deflection): rail seat Timoshenko %.5e m (Euler-Bernoulli %.5e m, shear part "
         "%+.2f %%), centre Timoshenko %.5e m (Euler-Bernoulli %.5e m), mean settlement P / (k B L) = %.5e m."
         % (ti_seat, eb_seat, 100 * (ti_seat / eb_seat - 1), ti_centre, eb_centre, mean_settlement))
+    # A patch load on the top face reaches the bottom spread over a longer stretch, which a line load at the axis
+    # does not have: the beam with the patch widened by H/2 (45 deg to the axis) and by H brackets that effect.
+    spread = [closed_form(args.modulus, patch_length=PATCH_LENGTH + extra)[1] for extra in (HEIGHT / 2, HEIGHT)]
+    say("Load spread through the depth (Timoshenko, patch %g m widened to %g / %g m): rail seat %.5e / %.5e m "
+        "(%+.2f / %+.2f %%), centre %.5e / %.5e m (%+.2f / %+.2f %%)."
+        % (PATCH_LENGTH, PATCH_LENGTH + HEIGHT / 2, PATCH_LENGTH + HEIGHT, spread[0][0], spread[1][0],
+           100 * (spread[0][0] / ti_seat - 1), 100 * (spread[1][0] / ti_seat - 1), spread[0][1], spread[1][1],
+           100 * (spread[0][1] / ti_centre - 1), 100 * (spread[1][1] / ti_centre - 1)))
     say("Largest bending strain of the Timoshenko beam |M| H / (2 EI) = %.4e." % beam_strain)
     say("Transfer-matrix solver vs Hetenyi's centre-load formulas: largest relative difference %.1e."
         % hetenyi_check(args.modulus))

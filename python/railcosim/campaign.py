@@ -438,6 +438,9 @@ def run_slurm(plan, out, todo, wait=True):
         ended = [r for r in todo if os.path.isfile(os.path.join(out, r["folder"], "summary.json"))]
         progress.failed = len(ended) - finished
         progress.jobs = max(1, progress.running)
+        # The runs' own wall times (from their summaries) give the ETA: the queue wait is not known.
+        progress.durations = [s["total_wall_time_s"] for s in map(read_summary, (os.path.join(out, r["folder"]) for r in ended))
+                              if s and numeric(s.get("total_wall_time_s"))]
         if queue.returncode == 0 and not states:
             break
         progress.show()

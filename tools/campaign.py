@@ -1,7 +1,7 @@
 #!/usr/bin/python3
 """Runs a campaign: one case over a grid and/or list of --set values with repetitions (docs/campaigns.md).
 
-Usage: railcosim campaign FILE.toml [--jobs N] [--scheduler local|slurm] [--no-wait] [--out DIR] [--collect]
+Usage: railcosim campaign FILE.toml [--jobs N] [--scheduler local|slurm] [--no-wait] [--out DIR] [--collect] [--fresh]
        railcosim campaign --task CAMPAIGN_DIR INDEX      (one run of a campaign's plan: a Slurm array task)
 
 Every run is `railcosim run CASE --out CAMPAIGN/runs/POINT/repR --set ...` with seed = base + R, so each
@@ -21,7 +21,7 @@ from railcosim import campaign
 from railcosim.case import CaseError
 from railcosim.parameters import ParameterError
 
-EXIT_FAILED, EXIT_REFUSED, EXIT_CHECKS = 1, 2, 3
+EXIT_REFUSED = 2
 
 
 def positive_int(text):
@@ -29,52 +29,6 @@ def positive_int(text):
     if value < 1:
         raise argparse.ArgumentTypeError(f"{text}: expected a whole number >= 1")
     return value
-
-
-def execute(spec, jobs=None, scheduler="local", wait=True, only_collect=False):
-    """Builds the plan of a campaign spec (a dict as load_spec returns), runs what is not finished and writes
-    the index, aggregates and plots. Returns (exit code, plan, out, index rows)."""
-    plan = campaign.build_plan(spec)
-    out = os.path.abspath(spec["out"])
-    if only_collect:
-        rows = campaign.report(plan, out)
-        return exit_code(rows), plan, out, rows
-    todo = campaign.prepare(plan, out)
-    skipped = len(plan["runs"]) - len(todo)
-    seeds = f", seeds {plan['runs'][0]['seed']}..{plan['runs'][0]['seed'] + plan['repetitions'] - 1}" if plan["has_seed"] else \
-        " (the case has no seed parameter: repetitions repeat the same run)"
-    print(f"[campaign] {plan['case_name']}: {len(plan['runs']) // plan['repetitions']} points x {plan['repetitions']} "
-          f"repetitions{seeds}; {len(todo)} to run, {skipped} finished before; folder {out}", flush=True)
-    if scheduler == "slurm":
-        job = campaign.run_slurm(plan, out, todo, wait=wait)
-        if job is not None and not wait:
-            print(f"[campaign] not waiting: `railcosim campaign FILE --collect` writes the index once job {job} ends")
-            return 0, plan, out, None
-    else:
-        default, cores = campaign.default_jobs()
-        if jobs is None:
-            jobs = default
-            if todo:
-                print(f"[campaign] local pool: {jobs} run(s) at a time ({cores} cores, {campaign.PROCESSES_PER_RUN} "
-                      "solver processes per coupled run; --jobs N to change)", flush=True)
-        try:
-            campaign.run_local(plan, out, todo, jobs)
-        except campaign.Interrupted as stop:
-            rows = campaign.report(plan, out, make_plots=False)
-            done = sum(r["status"] in campaign.FINISHED_STATUSES for r in rows)
-            print(f"[campaign] stopped by {stop}: {done}/{len(rows)} runs finished; run the same command to go on",
-                  flush=True)
-            return 128 + stop.signum, plan, out, rows
-    rows = campaign.report(plan, out)
-    print(f"[campaign] index: {os.path.join(out, campaign.INDEX_FILE)}  aggregates: "
-          f"{os.path.join(out, campaign.AGGREGATES_FILE)}  plots: {os.path.join(out, 'plots')}", flush=True)
-    return exit_code(rows), plan, out, rows
-
-
-def exit_code(rows):
-    if any(r["status"] not in campaign.FINISHED_STATUSES for r in rows):
-        return EXIT_FAILED
-    return EXIT_CHECKS if any(r["checks_passed"] is False for r in rows) else 0
 
 
 def main(argv):
@@ -89,11 +43,12 @@ def main(argv):
     parser.add_argument("--no-wait", action="store_true", help="slurm: submit and return")
     parser.add_argument("--out", help="campaign folder (default: the file's 'out', else results/FILE-NAME)")
     parser.add_argument("--collect", action="store_true", help="only write the index, aggregates and plots")
+    parser.add_argument("--fresh", action="store_true", help="run every run again, finished ones too")
     args = parser.parse_args(argv)
     spec = campaign.load_spec(args.file)
     if args.out:
         spec["out"] = os.path.abspath(args.out)
-    code, _, _, _ = execute(spec, args.jobs, args.scheduler, not args.no_wait, args.collect)
+    code, _, _, _ = campaign.execute(spec, args.jobs, args.scheduler, not args.no_wait, args.collect, args.fresh)
     return code
 
 

@@ -11,7 +11,6 @@ import shlex
 import shutil
 import signal
 import subprocess
-import sys
 import time
 import tomllib
 
@@ -31,6 +30,7 @@ PLAN_FILE, INDEX_FILE, AGGREGATES_FILE = "plan.json", "campaign.csv", "aggregate
 # Each coupled run is two solver processes (FEM and DEM) working in turn or together: a core each.
 PROCESSES_PER_RUN = 2
 PROGRESS_EVERY_S = 10.0
+EXIT_FAILED, EXIT_CHECKS = 1, 3  # as `railcosim run`: a run did not finish; every run finished, some checks failed
 # SIGTERM to a run, then SIGKILL after this: run_case.py stops its solvers within a second and writes its summary.
 RUN_STOP_GRACE_S = 10.0
 POLL_S = 0.2
@@ -156,9 +156,9 @@ def build_plan(spec):
 
 
 def run_command(plan, run, out):
-    """The `railcosim run` command line of one run (tools/run_case.py; the launch environment is inherited)."""
-    command = [sys.executable, os.path.join(ROOT, "tools", "run_case.py"), plan["case"],
-               "--out", os.path.join(out, run["folder"])]
+    """The `railcosim run` command line of one run: the entry point, so that the launch environment is right
+    however the campaign was started (railcosim campaign, tools/stability_map.py, a Slurm task)."""
+    command = [os.path.join(ROOT, "railcosim"), "run", plan["case"], "--out", os.path.join(out, run["folder"])]
     if plan["smoke"]:
         command.append("--smoke")
     if plan["time_limit_s"] is not None:
@@ -193,9 +193,9 @@ def write_json_atomic(path, data):
     os.replace(temporary, path)
 
 
-def prepare(plan, out):
+def prepare(plan, out, fresh=False):
     """Writes OUT/plan.json and clears the folders of runs that must run again: those not finished, and
-    finished ones whose settings differ from the previous plan's. Returns the runs still to do."""
+    finished ones whose settings differ from the previous plan's (every run when fresh). Returns the runs to do."""
     os.makedirs(out, exist_ok=True)
     previous = {}
     try:
@@ -207,7 +207,7 @@ def prepare(plan, out):
     for run in plan["runs"]:
         run["identity"] = run_identity(plan, run)
         folder = os.path.join(out, run["folder"])
-        if is_finished(out, run) and previous.get(run["folder"]) == run["identity"]:
+        if not fresh and is_finished(out, run) and previous.get(run["folder"]) == run["identity"]:
             continue
         clear_run(folder)
         todo.append(run)
@@ -312,7 +312,8 @@ def run_local(plan, out, todo, jobs, quiet=False):
     finally:
         for s, handler in previous.items():
             signal.signal(s, handler)
-    progress.show(force=True)
+    if quiet or stop or not todo:
+        progress.show(force=True)
     if stop:
         raise Interrupted(stop[0])
     return codes
@@ -584,3 +585,51 @@ def report(plan, out, make_plots=True):
     if make_plots:
         plot(plan, aggregates, out)
     return rows
+
+
+# --- The whole campaign ----------------------------------------------------------------------------------
+
+def execute(spec, jobs=None, scheduler="local", wait=True, only_collect=False, fresh=False):
+    """Builds the plan of a campaign spec (a dict as load_spec returns), runs what is not finished and writes
+    the index, aggregates and plots. Returns (exit code, plan, out, index rows)."""
+    plan = build_plan(spec)
+    out = os.path.abspath(spec["out"])
+    if only_collect:
+        rows = report(plan, out)
+        return exit_code(rows), plan, out, rows
+    todo = prepare(plan, out, fresh)
+    skipped = len(plan["runs"]) - len(todo)
+    seeds = f", seeds {plan['runs'][0]['seed']}..{plan['runs'][0]['seed'] + plan['repetitions'] - 1}" if plan["has_seed"] else \
+        " (the case has no seed parameter: repetitions repeat the same run)"
+    print(f"[campaign] {plan['case_name']}: {len(plan['runs']) // plan['repetitions']} points x {plan['repetitions']} "
+          f"repetitions{seeds}; {len(todo)} to run, {skipped} finished before; folder {out}", flush=True)
+    if scheduler == "slurm":
+        job = run_slurm(plan, out, todo, wait=wait)
+        if job is not None and not wait:
+            print(f"[campaign] not waiting: `railcosim campaign FILE --collect` writes the index once job {job} ends")
+            return 0, plan, out, None
+    else:
+        default, cores = default_jobs()
+        if jobs is None:
+            jobs = default
+            if todo:
+                print(f"[campaign] local pool: {jobs} run(s) at a time ({cores} cores, {PROCESSES_PER_RUN} "
+                      "solver processes per coupled run; --jobs N to change)", flush=True)
+        try:
+            run_local(plan, out, todo, jobs)
+        except Interrupted as stop:
+            rows = report(plan, out, make_plots=False)
+            done = sum(r["status"] in FINISHED_STATUSES for r in rows)
+            print(f"[campaign] stopped by {stop}: {done}/{len(rows)} runs finished; run the same command to go on",
+                  flush=True)
+            return 128 + stop.signum, plan, out, rows
+    rows = report(plan, out)
+    print(f"[campaign] index: {os.path.join(out, INDEX_FILE)}  aggregates: "
+          f"{os.path.join(out, AGGREGATES_FILE)}  plots: {os.path.join(out, 'plots')}", flush=True)
+    return exit_code(rows), plan, out, rows
+
+
+def exit_code(rows):
+    if any(r["status"] not in FINISHED_STATUSES for r in rows):
+        return EXIT_FAILED
+    return EXIT_CHECKS if any(r["checks_passed"] is False for r in rows) else 0

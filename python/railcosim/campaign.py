@@ -1,6 +1,7 @@
 """Campaigns: one case over a grid and/or list of --set values, with repetitions, run in a local pool or as a
 Slurm job array; one folder per run, one index (campaign.csv), aggregates per point, plots (docs/campaigns.md)."""
 import csv
+import fcntl
 import glob
 import itertools
 import json
@@ -27,6 +28,7 @@ CAMPAIGN_KEYS = ("case", "smoke", "repetitions", "seed", "out", "time_limit_s", 
 SLURM_KEYS = ("partition", "account", "time", "cpus_per_task", "mem", "qos", "constraint", "max_parallel",
               "modules", "setup", "options", "poll_s")
 PLAN_FILE, INDEX_FILE, AGGREGATES_FILE = "plan.json", "campaign.csv", "aggregates.csv"
+ACTIVE_JOB_FILE, LOCK_FILE = "job.json", ".lock"  # in CAMPAIGN/slurm: the last job array; in CAMPAIGN: one campaign at a time
 # Each coupled run is two solver processes (FEM and DEM) working in turn or together: a core each.
 PROCESSES_PER_RUN = 2
 PROGRESS_EVERY_S = 10.0
@@ -34,6 +36,7 @@ EXIT_FAILED, EXIT_CHECKS = 1, 3  # as `railcosim run`: a run did not finish; eve
 # SIGTERM to a run, then SIGKILL after this: run_case.py stops its solvers within a second and writes its summary.
 RUN_STOP_GRACE_S = 10.0
 POLL_S = 0.2
+SQUEUE_PATIENCE_S = 300.0  # a controller restart or failover takes seconds to minutes
 ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 
 
@@ -424,30 +427,66 @@ def run_slurm(plan, out, todo, wait=True):
     if result.returncode != 0:
         raise CampaignError(f"sbatch {script} failed ({result.returncode}): {result.stderr.strip()}")
     job = result.stdout.strip().split(";")[0]
+    write_json_atomic(os.path.join(out, "slurm", ACTIVE_JOB_FILE), {"job": job, "runs": len(todo)})
     print(f"[campaign] submitted {len(todo)} runs as Slurm job array {job} ({script})", flush=True)
     if not wait:
         return job
+    try:
+        follow_slurm(plan, out, todo, job)
+    except KeyboardInterrupt:
+        print(f"\n[campaign] no longer following job array {job}: it goes on (scancel {job} stops it); "
+              "`railcosim campaign FILE --collect` writes the index", flush=True)
+        raise Interrupted(signal.SIGINT) from None
+    return job
+
+
+def queued_states(job):
+    """States of the job array's tasks still queued or running ([] once all ended), or None if squeue fails."""
+    queue = subprocess.run(["squeue", "--noheader", "--array", "--jobs", job, "--format=%T"],
+                           capture_output=True, text=True)
+    if queue.returncode != 0:
+        # squeue refuses a job id it no longer knows (MinJobAge after the end): the job has ended.
+        return [] if "Invalid job id" in queue.stderr else None
+    return queue.stdout.split()
+
+
+def refuse_if_submitted(out):
+    """A job array of this campaign that is still queued or running would be run twice: refused."""
+    try:
+        with open(os.path.join(out, "slurm", ACTIVE_JOB_FILE)) as f:
+            job = json.load(f)["job"]
+    except (OSError, ValueError, KeyError):
+        return
+    if shutil.which("squeue") and queued_states(job):
+        raise CampaignError(f"Slurm job array {job} of this campaign is still queued or running; wait for it "
+                            f"(squeue --jobs {job}) or stop it (scancel {job}), then run the campaign again")
+
+
+def follow_slurm(plan, out, todo, job):
+    """Progress of the job array from the runs' folders until squeue lists no task of it."""
     progress = Progress(len(plan["runs"]), len(plan["runs"]) - len(todo), 1)
     poll = float(plan["slurm"].get("poll_s", 5))
+    failures = 0
     while True:
-        queue = subprocess.run(["squeue", "--noheader", "--array", "--jobs", job, "--format=%T"],
-                               capture_output=True, text=True)
-        states = queue.stdout.split() if queue.returncode == 0 else []
+        states = queued_states(job)
+        failures = failures + 1 if states is None else 0
+        if failures * poll > SQUEUE_PATIENCE_S:
+            raise CampaignError(f"squeue has failed for {SQUEUE_PATIENCE_S:.0f} s; job array {job} goes on "
+                                "(scancel stops it); `railcosim campaign FILE --collect` writes the index")
         finished = sum(is_finished(out, r) for r in todo)
         progress.done = finished
-        progress.running = states.count("RUNNING")
         ended = [r for r in todo if os.path.isfile(os.path.join(out, r["folder"], "summary.json"))]
         progress.failed = len(ended) - finished
+        progress.running = (states or []).count("RUNNING")
         progress.jobs = max(1, progress.running)
         # The runs' own wall times (from their summaries) give the ETA: the queue wait is not known.
         progress.durations = [s["total_wall_time_s"] for s in map(read_summary, (os.path.join(out, r["folder"]) for r in ended))
                               if s and numeric(s.get("total_wall_time_s"))]
-        if queue.returncode == 0 and not states:
+        if states == []:
             break
         progress.show()
         time.sleep(poll)
     progress.show(force=True)
-    return job
 
 
 # --- Results ---------------------------------------------------------------------------------------------
@@ -594,9 +633,16 @@ def execute(spec, jobs=None, scheduler="local", wait=True, only_collect=False, f
     the index, aggregates and plots. Returns (exit code, plan, out, index rows)."""
     plan = build_plan(spec)
     out = os.path.abspath(spec["out"])
+    os.makedirs(out, exist_ok=True)
+    lock = open(os.path.join(out, LOCK_FILE), "w")
+    try:
+        fcntl.flock(lock, fcntl.LOCK_EX | fcntl.LOCK_NB)
+    except BlockingIOError:
+        raise CampaignError(f"another campaign is running in {out}") from None
     if only_collect:
         rows = report(plan, out)
         return exit_code(rows), plan, out, rows
+    refuse_if_submitted(out)
     todo = prepare(plan, out, fresh)
     skipped = len(plan["runs"]) - len(todo)
     seeds = f", seeds {plan['runs'][0]['seed']}..{plan['runs'][0]['seed'] + plan['repetitions'] - 1}" if plan["has_seed"] else \
@@ -604,7 +650,10 @@ def execute(spec, jobs=None, scheduler="local", wait=True, only_collect=False, f
     print(f"[campaign] {plan['case_name']}: {len(plan['runs']) // plan['repetitions']} points x {plan['repetitions']} "
           f"repetitions{seeds}; {len(todo)} to run, {skipped} finished before; folder {out}", flush=True)
     if scheduler == "slurm":
-        job = run_slurm(plan, out, todo, wait=wait)
+        try:
+            job = run_slurm(plan, out, todo, wait=wait)
+        except Interrupted as stop:
+            return 128 + stop.signum, plan, out, None
         if job is not None and not wait:
             print(f"[campaign] not waiting: `railcosim campaign FILE --collect` writes the index once job {job} ends")
             return 0, plan, out, None

@@ -220,6 +220,19 @@ class SlurmTest(unittest.TestCase):
         self.assertIn("0 to run, 4 finished before", again.stdout)
         self.assertNotIn("submitted", again.stdout)
 
+        # While a submitted array is queued or running, the campaign is not submitted a second time.
+        fresh = run_campaign(file, "--out", slurm_out, "--scheduler", "slurm", "--fresh", "--no-wait")
+        self.assertEqual(fresh.returncode, 0, fresh.stdout)
+        with open(os.path.join(slurm_out, "slurm", "job.json")) as f:
+            job = json.load(f)["job"]
+        twice = run_campaign(file, "--out", slurm_out, "--scheduler", "slurm")
+        subprocess.run(["scancel", job])
+        self.assertEqual(twice.returncode, 2, twice.stdout)
+        self.assertIn(f"job array {job} of this campaign is still queued or running", twice.stdout)
+        deadline = time.monotonic() + SLOW_S
+        while campaign.queued_states(job) and time.monotonic() < deadline:
+            time.sleep(0.5)
+
 
 if __name__ == "__main__":
     unittest.main()

@@ -510,7 +510,8 @@ def collect(plan, out):
         row = {"run": run["folder"], "point": run["point"], "repetition": run["repetition"], "seed": run["seed"],
                "status": summary.get("status", "missing")}
         checks = summary.get("checks", [])
-        row["checks_passed"] = "" if not summary else all(c.get("passed") for c in checks)
+        # The checks of an unfinished run were not made: neither passed nor failed.
+        row["checks_passed"] = all(c.get("passed") for c in checks) if row["status"] in FINISHED_STATUSES else None
         row["wall_time_s"] = summary.get("wall_time_s")
         resolved = summary.get("parameters", {})
         for key in plan["swept"]:
@@ -578,7 +579,7 @@ def plot(plan, aggregates, out):
     swept = plan["swept"]
     if not swept or not aggregates:
         return []
-    names = sorted({k[: -len(".mean")] for a in aggregates for k in a if k.endswith(".mean")})
+    names = sorted({k[: -len(".mean")] for a in aggregates for k, v in a.items() if k.endswith(".mean") and numeric(v)})
     folder = os.path.join(out, "plots")
     os.makedirs(folder, exist_ok=True)
     written = []

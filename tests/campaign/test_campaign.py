@@ -147,6 +147,19 @@ class LocalPoolTest(unittest.TestCase):
         after = summary_times(self.out)
         self.assertEqual([k for k in after if after[k] != before[k]], [removed])
 
+    def test_unfinished_runs_are_indexed_not_aggregated(self):
+        file = os.path.join(self.folder, "limited.toml")  # every run stopped by its time limit
+        with open(self.file) as f, open(file, "w") as g:
+            g.write("time_limit_s = 0.3\n" + f.read())
+        result = run_campaign(file)
+        self.assertEqual(result.returncode, 1, result.stdout)
+        rows = read_csv(os.path.join(self.out, "campaign.csv"))
+        self.assertEqual([(r["status"], r["checks_passed"]) for r in rows], [("time_limit", "")] * 4)
+        aggregates = read_csv(os.path.join(self.out, "aggregates.csv"))
+        self.assertEqual([(a["runs"], a["finished"], a["wall_time_s.mean"]) for a in aggregates], [("2", "0", "")] * 2)
+        self.assertIn("4 failed", result.stdout)
+        self.assertIn("4 to run, 0 finished before", run_campaign(file).stdout)  # none finished: all again
+
     def test_sigint_mid_run_counts_no_unfinished_run(self):
         campaign_process = subprocess.Popen([RAILCOSIM, "campaign", self.file, "--jobs", "1"], stdout=subprocess.PIPE,
                                             stderr=subprocess.STDOUT, text=True, start_new_session=True)

@@ -269,9 +269,9 @@ class Interrupted(BaseException):
         super().__init__(signal.Signals(signum).name)
 
 
-def run_local(plan, out, todo, jobs, quiet=False):
-    """Runs `todo` in a pool of `jobs` run_case.py processes, each in its own session with its output in
-    OUT/runs/.../../repN.log. SIGINT, SIGTERM or SIGHUP stops every run (run_case.py records it as
+def run_local(plan, out, todo, jobs, quiet=False, lock=None):
+    """Runs `todo` in a pool of `jobs` `railcosim run` processes, each in its own session with its output in
+    OUT/runs/POINT/repR.log. SIGINT, SIGTERM or SIGHUP stops every run (run_case.py records it as
     interrupted: not finished) and raises Interrupted once all have stopped. Returns {folder: exit code}."""
     progress = Progress(len(plan["runs"]), len(plan["runs"]) - len(todo), jobs)
     pending, active, codes = list(todo), {}, {}
@@ -290,8 +290,11 @@ def run_local(plan, out, todo, jobs, quiet=False):
                 folder = os.path.join(out, run["folder"])
                 os.makedirs(os.path.dirname(folder), exist_ok=True)
                 log = open(folder + ".log", "w")
+                # Each run holds the campaign's lock too: runs left behind by a campaign killed with SIGKILL
+                # keep the folder locked until they end, so a new campaign cannot clear them mid-run.
                 process = subprocess.Popen(run_command(plan, run, out), stdout=log, stderr=subprocess.STDOUT,
-                                           stdin=subprocess.DEVNULL, start_new_session=True)
+                                           stdin=subprocess.DEVNULL, start_new_session=True,
+                                           pass_fds=(lock.fileno(),) if lock else ())
                 log.close()
                 active[process] = (run, time.monotonic())
                 progress.running = len(active)
@@ -639,7 +642,7 @@ def execute(spec, jobs=None, scheduler="local", wait=True, only_collect=False, f
     try:
         fcntl.flock(lock, fcntl.LOCK_EX | fcntl.LOCK_NB)
     except BlockingIOError:
-        raise CampaignError(f"another campaign is running in {out}") from None
+        raise CampaignError(f"another campaign, or runs of one that was killed, are running in {out}") from None
     if only_collect:
         rows = report(plan, out)
         return exit_code(rows), plan, out, rows
@@ -666,7 +669,7 @@ def execute(spec, jobs=None, scheduler="local", wait=True, only_collect=False, f
                 print(f"[campaign] local pool: {jobs} run(s) at a time ({cores} cores, {PROCESSES_PER_RUN} "
                       "solver processes per coupled run; --jobs N to change)", flush=True)
         try:
-            run_local(plan, out, todo, jobs)
+            run_local(plan, out, todo, jobs, lock=lock)
         except Interrupted as stop:
             rows = report(plan, out, make_plots=False)
             done = sum(r["status"] in FINISHED_STATUSES for r in rows)

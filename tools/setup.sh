@@ -31,6 +31,7 @@ packages=(
   libzmq3-dev cppzmq-dev python3-h5py python3-scipy
   freefem++ libfreefem++-dev
   clang libclang-rt-14-dev iproute2 util-linux
+  slurm-wlm munge
 )
 
 # with_progress LABEL LOG COMMAND...: runs COMMAND (output appended to LOG) and prints the percentage

@@ -3,9 +3,12 @@
 
 Usage: railcosim-env python3 tools/stability_map.py CASE [--smoke] --grid KEY=V1,V2 [--grid ...]
            [--point KEY=V,KEY=V ...] [--set KEY=VALUE ...] [--reference KEY=V,KEY=V --reference-metric NAME]
-           [--out DIR]
-Each grid point is one `railcosim run CASE --set ...`; --point adds single extra points (e.g. one Aitken-off
-run) to the grid. The last --grid axis is the x axis of the plot (usually fem_dt); the others form the series.
+           [--out DIR] [--jobs N] [--resume]
+The map is a campaign of one repetition (python/railcosim/campaign.py, docs/campaigns.md): each grid point is
+one `railcosim run CASE --set ...` in DIR/runs/POINT/rep0, indexed in DIR/campaign.csv; --point adds single
+extra points (e.g. one Aitken-off run) to the grid. The last --grid axis is the x axis of the plot (usually
+fem_dt); the others form the series. Every run is made afresh unless --resume (finished runs with unchanged
+settings are kept); --jobs 1 by default, since the map compares wall times.
 
 A run is *stable* when it finished, its interface force averaged over the final span is within 5 % of the
 weight or load it must carry, and the window-sampled interface force oscillates by at most 10 % (rms over
@@ -19,13 +22,14 @@ With --reference, the record matching those settings is the converged reference:
 Writes DIR/stability_map.json, DIR/stability_map.md, DIR/stability_map.png.
 """
 import argparse
-import itertools
-import glob
 import json
 import os
-import shutil
-import subprocess
 import sys
+
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(__file__))), "python"))
+from railcosim import campaign  # noqa: E402  (the package of this repository, found by the path above)
+from railcosim.case import CaseError  # noqa: E402
+from railcosim.parameters import ParameterError  # noqa: E402
 
 STABLE_FORCE_ERROR = 0.05
 STABLE_FLUCTUATION = 0.10
@@ -41,20 +45,10 @@ def parse_point(text):
     return dict(item.split("=", 1) for item in items)
 
 
-def run_point(root, case, run_dir, settings, smoke):
-    # The runner keeps an earlier result when a run fails, so a point's old summary could stand in for a
-    # failed rerun: the point's folders (result and unfinished ones) are removed first.
-    for old in [run_dir] + glob.glob(run_dir + ".partial-*"):
-        shutil.rmtree(old, ignore_errors=True)
-    command = [os.path.join(root, "railcosim"), "run", case, "--out", run_dir] + (["--smoke"] if smoke else [])
-    for key, value in settings:
-        command += ["--set", f"{key}={value}"]
-    subprocess.run(command, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
-    summary_path = os.path.join(run_dir, "summary.json")
-    if not os.path.isfile(summary_path):
+def record_of(summary):
+    """The figures of one run's summary.json that the map judges and tabulates ({'status': 'failed'} without one)."""
+    if summary is None:
         return {"status": "failed"}
-    with open(summary_path) as f:
-        summary = json.load(f)
     errors, metrics, coupling = summary.get("relative_error", {}), summary.get("metrics", {}), summary.get("coupling", {})
     return {"status": summary["status"], "wall_time_s": summary.get("wall_time_s"),
             "interface_force_error": errors.get("interface_force_vs_weight"),
@@ -96,10 +90,12 @@ def main(argv):
     parser.add_argument("--reference", default=None, metavar="KEY=V,KEY=V")
     parser.add_argument("--reference-metric", default=None)
     parser.add_argument("--out", default=None)
+    # The wall times are part of the map: by default the runs do not compete for the cores.
+    parser.add_argument("--jobs", type=int, default=1, help="runs at a time (default 1: wall times are compared)")
+    parser.add_argument("--resume", action="store_true", help="keep finished runs with unchanged settings")
     args = parser.parse_args(argv)
     if bool(args.reference) != bool(args.reference_metric):
         parser.error("--reference and --reference-metric go together")
-    root = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
     name = os.path.basename(os.path.abspath(args.case).rstrip("/"))
     out = os.path.abspath(args.out or os.path.join("results", f"{name}-stability"))
     os.makedirs(out, exist_ok=True)
@@ -107,21 +103,33 @@ def main(argv):
         parser.error("--grid needs KEY=V1,V2,...")
     axes = [(item.split("=", 1)[0], item.split("=", 1)[1].split(",")) for item in args.grid]
     keys = [k for k, _ in axes]
-    points = [dict(p) for p in itertools.product(*[[(k, v) for v in values] for k, values in axes])]
+    extra_points = []
     for extra in args.point:
         point = parse_point(extra)
         if not all(k in point for k in keys):
             parser.error(f"--point {extra}: give a value for every grid key ({', '.join(keys)}) and optionally others")
-        points.append(point)
-    fixed = [tuple(s.split("=", 1)) for s in args.set]
+        extra_points.append(point)
+    fixed = dict(item.split("=", 1) for item in args.set if "=" in item)
+    # The map is a campaign of one repetition (railcosim.campaign): one run folder per point under DIR/runs,
+    # DIR/campaign.csv and aggregates.csv beside the map's own files.
+    spec = {"case": os.path.abspath(args.case), "smoke": args.smoke, "out": out, "repetitions": 1,
+            "grid": dict(axes), "points": extra_points,
+            "set": {k: v for k, v in fixed.items() if k != "seed"}}
+    if "seed" in fixed:
+        spec["seed"] = int(fixed["seed"])
+    try:
+        code, plan, out, _ = campaign.execute(spec, jobs=args.jobs, fresh=not args.resume)
+    except (campaign.CampaignError, CaseError, ParameterError) as e:
+        sys.exit(f"stability_map.py: {e}")
+    if code >= 128:
+        return code
     records = []
-    for point in points:
-        label = "_".join(f"{k}-{v}" for k, v in point.items())
-        record = {**point, **run_point(root, args.case, os.path.join(out, label), list(point.items()) + fixed, args.smoke)}
+    for run in plan["runs"]:
+        record = {**run["values"], **record_of(campaign.read_summary(os.path.join(out, run["folder"])))}
         record["stable"] = is_stable(record)
         records.append(record)
         pct = lambda v: "–" if v is None else f"{v:.2%}"
-        print(f"[map] {label}: {'stable' if record['stable'] else 'UNSTABLE'}  force error {pct(record.get('interface_force_error'))}"
+        print(f"[map] {run['point']}: {'stable' if record['stable'] else 'UNSTABLE'}  force error {pct(record.get('interface_force_error'))}"
               f"  oscillation {pct(record.get('force_fluctuation'))}  wall {record.get('wall_time_s')} s", flush=True)
     reference = None
     if args.reference:
@@ -133,7 +141,7 @@ def main(argv):
         for r in records:
             value = r.get("metrics", {}).get(args.reference_metric)
             r["reference_error"] = None if value is None or r is matches[0] else abs(value - reference) / abs(reference)
-    extra_keys = sorted({k for p in points for k in p} - set(keys))  # settings named only by --point
+    extra_keys = sorted({k for p in extra_points for k in p} - set(keys))  # settings named only by --point
     with open(os.path.join(out, "stability_map.json"), "w") as f:
         json.dump({"case": name, "smoke": args.smoke,
                    "criterion": f"finished; interface force within {STABLE_FORCE_ERROR:.0%} of the weight/load and its rms "

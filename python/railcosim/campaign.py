@@ -525,6 +525,9 @@ def collect(plan, out):
                 row[name] = value
         flatten("metrics", summary.get("metrics", {}), metrics := {})
         row.update(metrics)
+        # The case's errors against its reference (a closed form, a direct run): the speed-vs-error plot's y.
+        flatten("relative_error", summary.get("relative_error", {}), errors := {})
+        row.update(errors)
         rows.append(row)
     write_csv(os.path.join(out, INDEX_FILE), rows)
     return rows
@@ -548,7 +551,7 @@ def numeric(value):
 def aggregate(plan, rows, out):
     """Per parameter point, over its finished repetitions: n and mean, std (sample, n-1; 0 for one run), min,
     max of the wall time and of every numeric metric. Writes OUT/aggregates.csv; returns the rows."""
-    metric_names = list(dict.fromkeys(k for r in rows for k in r if k.startswith("metrics.")))
+    metric_names = list(dict.fromkeys(k for r in rows for k in r if k.startswith(("metrics.", "relative_error."))))
     result = []
     for point in dict.fromkeys(r["point"] for r in rows):
         members = [r for r in rows if r["point"] == point]
@@ -582,7 +585,8 @@ def plot(plan, aggregates, out):
     swept = plan["swept"]
     if not swept or not aggregates:
         return []
-    names = sorted({k[: -len(".mean")] for a in aggregates for k, v in a.items() if k.endswith(".mean") and numeric(v)})
+    names = sorted({k[: -len(".mean")] for a in aggregates for k, v in a.items()
+                    if k.endswith(".mean") and k.startswith("metrics.") and numeric(v)})
     folder = os.path.join(out, "plots")
     os.makedirs(folder, exist_ok=True)
     written = []
@@ -621,12 +625,52 @@ def plot(plan, aggregates, out):
     return written
 
 
+def plot_speed_vs_error(plan, aggregates, out):
+    """OUT/plots/speed_vs_error_NAME.png for every error the case reports against its reference: one point per
+    parameter point, wall time (mean over repetitions) against the error (mean, ± std bars), labelled with the
+    point. Log scales where every value is positive. Returns the files written."""
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    names = sorted({k[: -len(".mean")] for a in aggregates for k, v in a.items()
+                    if k.startswith("relative_error.") and k.endswith(".mean") and numeric(v)})
+    folder = os.path.join(out, "plots")
+    written = []
+    for name in names:
+        points = [a for a in aggregates if numeric(a.get(f"{name}.mean")) and numeric(a.get("wall_time_s.mean"))]
+        if not points:
+            continue
+        os.makedirs(folder, exist_ok=True)
+        fig, ax = plt.subplots(figsize=(6.4, 4.6))
+        for n, a in enumerate(points):
+            ax.errorbar(a["wall_time_s.mean"], a[f"{name}.mean"], xerr=a["wall_time_s.std"] or 0.0,
+                        yerr=a[f"{name}.std"] or 0.0, fmt="o", color=f"C{n % 10}", capsize=3)
+            ax.annotate(a["point"], (a["wall_time_s.mean"], a[f"{name}.mean"]), fontsize=7,
+                        xytext=(4, 4), textcoords="offset points")
+        if all(a["wall_time_s.mean"] > 0 for a in points):
+            ax.set_xscale("log")
+        if all(a[f"{name}.mean"] > 0 for a in points):
+            ax.set_yscale("log")
+        ax.set_xlabel("wall time per run [s]")
+        ax.set_ylabel(f"{name.removeprefix('relative_error.')} (relative error)")
+        ax.grid(alpha=0.3, which="both")
+        ax.set_title(f"{plan['case_name']}: speed against error, mean ± std over {plan['repetitions']} repetition(s)",
+                     fontsize=9)
+        fig.tight_layout()
+        path = os.path.join(folder, "speed_vs_error_" + re.sub(r"[^A-Za-z0-9._-]", "_", name.removeprefix("relative_error.")) + ".png")
+        fig.savefig(path, dpi=110)
+        plt.close(fig)
+        written.append(path)
+    return written
+
+
 def report(plan, out, make_plots=True):
     """Index, aggregates and plots of the runs in OUT; returns the index rows."""
     rows = collect(plan, out)
     aggregates = aggregate(plan, rows, out)
     if make_plots:
         plot(plan, aggregates, out)
+        plot_speed_vs_error(plan, aggregates, out)
     return rows
 
 

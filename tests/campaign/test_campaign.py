@@ -41,6 +41,11 @@ def write_campaign(folder, out, extra=""):
     return path
 
 
+def summary_of(out, row):
+    with open(os.path.join(out, row["run"], "summary.json")) as f:
+        return json.load(f)
+
+
 def read_csv(path):
     with open(path, newline="") as f:
         return list(csv.DictReader(f))
@@ -132,6 +137,12 @@ class LocalPoolTest(unittest.TestCase):
             self.assertAlmostEqual(float(point["metrics.carried_force_n.mean"]), statistics.mean(values), places=12)
             self.assertAlmostEqual(float(point["metrics.carried_force_n.std"]), statistics.stdev(values), places=12)
         self.assertTrue(os.path.isfile(os.path.join(self.out, "plots", "carried_force_n.png")))
+        # The template reports its interface energy error against its reference: the speed-vs-error plot's y,
+        # aggregated like the metrics.
+        self.assertEqual(float(rows[0]["relative_error.interface_energy"]),
+                         summary_of(self.out, rows[0])["relative_error"]["interface_energy"])
+        self.assertIn("relative_error.interface_energy.mean", aggregates[0])
+        self.assertTrue(os.path.isfile(os.path.join(self.out, "plots", "speed_vs_error_interface_energy.png")))
 
         before = summary_times(self.out)
         again = run_campaign(self.file)

@@ -30,7 +30,10 @@ class StandinCase(Case):
         return [("reference", _command(p, "reference", p["reference_behaviour"], "none"))]
 
     def postprocess(self, p, out):
-        with open(os.path.join(p["marker_dir"], "postprocess.json"), "w") as f:
+        # Written whole, then renamed: the test reads the marker as soon as it exists.
+        marker = os.path.join(p["marker_dir"], "postprocess.json")
+        with open(marker + ".tmp", "w") as f:
             json.dump({"pid": os.getpid()}, f)
+        os.rename(marker + ".tmp", marker)
         time.sleep(p["post_sleep_s"])
         return {"metrics": {"lines": p["lines"]}, "checks": [{"name": "stand-in check", "value": 0.0, "limit": 1.0}]}

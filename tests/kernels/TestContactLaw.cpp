@@ -4,6 +4,7 @@
 #include <boost/test/unit_test.hpp>
 
 #include <cmath>
+#include <iomanip>
 #include <limits>
 #include <stdexcept>
 #include <string>
@@ -235,10 +236,12 @@ BOOST_AUTO_TEST_CASE(scenario_elasto_plastic_cycle_gives_the_closed_forms) {
     if (!unloading && r.normalForce >= scenario::cyclePeakForce) unloading = true;
   }
   BOOST_TEST_REQUIRE(recorder.done);
-  BOOST_TEST_MESSAGE("kernel cycle: F_max " << recorder.peakForce << " N at δ_max " << recorder.peakOverlap
-                                            << " m, δ_p " << history.normal.plasticOverlap << " m (closed form "
-                                            << scenario::plasticOverlap(recorder.peakOverlap, recorder.peakForce)
-                                            << ")");
+  BOOST_TEST_MESSAGE(std::setprecision(9)
+                     << "kernel cycle: F_max " << recorder.peakForce << " N at δ_max " << recorder.peakOverlap
+                     << " m, force vanishes in [" << recorder.zeroOverlap << ", " << recorder.releaseOverlap
+                     << "] m, closed-form δ_p " << scenario::plasticOverlap(recorder.peakOverlap, recorder.peakForce)
+                     << " m; errors: peak " << recorder.peakForceError() << ", unloading "
+                     << recorder.unloadingForceError());
   BOOST_TEST(recorder.peakForceError() < scenario::peakForceTolerance);
   BOOST_TEST(recorder.plasticOverlapStepsOutside() <= scenario::plasticOverlapStepTolerance);
   BOOST_TEST(recorder.unloadingForceError() < scenario::unloadingForceTolerance);
@@ -261,7 +264,7 @@ BOOST_AUTO_TEST_CASE(scenario_impact_gives_the_restitution) {
         return r.normalForce;
       });
   const double restitution = outcome.reboundSpeed / scenario::impactSpeed;
-  BOOST_TEST_MESSAGE("kernel impact: e = " << restitution << " in " << outcome.contactTime / scenario::impactTimeStep
-                                           << " steps of contact");
+  BOOST_TEST_MESSAGE(std::setprecision(9) << "kernel impact: e = " << restitution << " in "
+                                          << outcome.contactTime / scenario::impactTimeStep << " steps of contact");
   BOOST_TEST(std::fabs(restitution / scenario::impactRestitution - 1.0) < scenario::restitutionTolerance);
 }

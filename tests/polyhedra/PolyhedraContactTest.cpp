@@ -5,6 +5,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <iomanip>
 #include <string>
 #include <vector>
 
@@ -887,14 +888,15 @@ BOOST_AUTO_TEST_CASE(contact_law_scenarios_give_the_closed_forms) {
   namespace scenario = railcosim::testing::scenario;
   const scenario::CycleRecorder cycle = railcosim::testing::runCycleScenario(Backend::Cpu);
   BOOST_TEST_REQUIRE(cycle.done);
-  BOOST_TEST_MESSAGE("polyhedra CPU cycle: F_max " << cycle.peakForce << " N at " << cycle.peakOverlap
-                                                   << " m, force vanishes in [" << cycle.zeroOverlap << ", "
-                                                   << cycle.releaseOverlap << "] m, closed-form δ_p "
-                                                   << scenario::plasticOverlap(cycle.peakOverlap, cycle.peakForce));
+  BOOST_TEST_MESSAGE(std::setprecision(9)
+                     << "polyhedra CPU cycle: F_max " << cycle.peakForce << " N at " << cycle.peakOverlap
+                     << " m, force vanishes in [" << cycle.zeroOverlap << ", " << cycle.releaseOverlap
+                     << "] m, closed-form δ_p " << scenario::plasticOverlap(cycle.peakOverlap, cycle.peakForce)
+                     << " m; errors: peak " << cycle.peakForceError() << ", unloading " << cycle.unloadingForceError());
   BOOST_TEST(cycle.peakForceError() < scenario::peakForceTolerance);
   BOOST_TEST(cycle.plasticOverlapStepsOutside() <= scenario::plasticOverlapStepTolerance);
   BOOST_TEST(cycle.unloadingForceError() < scenario::unloadingForceTolerance);
   const double restitution = railcosim::testing::runImpactScenario(Backend::Cpu);
-  BOOST_TEST_MESSAGE("polyhedra CPU impact: e = " << restitution);
+  BOOST_TEST_MESSAGE(std::setprecision(9) << "polyhedra CPU impact: e = " << restitution);
   BOOST_TEST(std::fabs(restitution / scenario::impactRestitution - 1.0) < scenario::restitutionTolerance);
 }

@@ -100,6 +100,23 @@ class CycleRecorder:
               f"Hertz about delta_p (rel. error {unloading_error:.1e} < {UNLOADING_TOLERANCE})")
 
 
+def run_cycle(sphere, step):
+    """Drives the prescribed sphere through the cycle; step() advances one step and returns (overlap, force) of that
+    step's contact, or None before the contact."""
+    recorder, unloading = CycleRecorder(), False
+    for _ in range(100000):
+        sample = step()
+        if sample is None:
+            continue
+        recorder.sample(*sample, unloading)
+        if recorder.done:
+            break
+        if not unloading and sample[1] >= CYCLE_PEAK:
+            unloading = True
+            O.bodies[sphere].state.vel = (0, 0, CYCLE_SPEED)
+    return recorder
+
+
 def report_restitution(path, rebound):
     achieved = rebound / IMPACT_SPEED
     check(abs(achieved / IMPACT_E - 1) < RESTITUTION_TOLERANCE,
@@ -128,19 +145,17 @@ sphere = O.bodies.append(utils.sphere((0, 0, RADIUS + 0.5 * CYCLE_STEP), RADIUS,
 O.bodies[sphere].state.vel = (0, 0, -CYCLE_SPEED)
 O.engines = pair_engines()
 O.dt = CYCLE_DT
-recorder, unloading = CycleRecorder(), False
-for _ in range(100000):
+
+
+def pair_step():
     O.step()
     if not O.interactions.has(wall, sphere) or not O.interactions[wall, sphere].isReal:
-        continue
+        return None
     interaction = O.interactions[wall, sphere]
-    overlap, force = interaction.geom.penetrationDepth, interaction.phys.normalForce.norm()
-    recorder.sample(overlap, force, unloading)
-    if recorder.done:
-        break
-    if not unloading and force >= CYCLE_PEAK:
-        unloading = True
-        O.bodies[sphere].state.vel = (0, 0, CYCLE_SPEED)
+    return interaction.geom.penetrationDepth, interaction.phys.normalForce.norm()
+
+
+recorder = run_cycle(sphere, pair_step)
 check(O.interactions[wall, sphere].phys.contactLaw ==
       "pohrt_popov_plastic + viscous_restitution + stiffness_ratio + coulomb + none",
       f"pair law: {O.interactions[wall, sphere].phys.contactLaw}")
@@ -189,21 +204,17 @@ fem, coupling, material = surface_run(CYCLE_DT * 100, granite(True))
 sphere = O.bodies.append(utils.sphere((0.13, 0.06, RADIUS + 0.5 * CYCLE_STEP), RADIUS, material=material, fixed=True))
 O.bodies[sphere].state.vel = (0, 0, -CYCLE_SPEED)
 coupling.connect()
-recorder, unloading = CycleRecorder(), False
-for _ in range(100000):
+
+
+def surface_step():
     # The surface placed by the last step is the one this step's contacts see; the sphere moves after them.
     node, normal = surface_plane(coupling)
     overlap = RADIUS - (O.bodies[sphere].state.pos - node).dot(normal)
     O.step()
-    if overlap <= 0:
-        continue
-    force = O.forces.f(sphere).dot(normal)
-    recorder.sample(overlap, force, unloading)
-    if recorder.done:
-        break
-    if not unloading and force >= CYCLE_PEAK:
-        unloading = True
-        O.bodies[sphere].state.vel = (0, 0, CYCLE_SPEED)
+    return (overlap, O.forces.f(sphere).dot(normal)) if overlap > 0 else None
+
+
+recorder = run_cycle(sphere, surface_step)
 coupling.finalize()
 fem.wait(10)
 recorder.report("FE surface")

@@ -5,7 +5,7 @@
 #include <cmath>
 #include <limits>
 
-#include "kernels/BallastContact.hpp"
+#include "kernels/ContactLaw.hpp"
 #include "kernels/BoundedRollingFriction.hpp"
 
 using namespace railcosim::kernels;
@@ -89,14 +89,14 @@ RollingRun rollSphere(double rollingCoefficient, double slopeAngle, bool startRo
   const double g = 9.81;
   const Vec3 gravity{-g * std::sin(slopeAngle), 0.0, -g * std::cos(slopeAngle)};
 
-  BallastContactParams params{};
-  params.normalModel = NormalModel::Hertz;
+  // Hertz, Mindlin and Coulomb, selected by keyword; the rolling torque is applied per particle below.
+  ContactLaw law{selectContactLaw(ContactLawKeywords{}), ContactParams{}};
+  ContactParams& params = law.params;
   // The wall is rigid: E2 → ∞, so E* = E/(1 − ν²); G* = G/(2 − ν) (thesis eq. 4.1).
   params.hertzMindlin = HertzMindlinParams{effectiveYoungModulus(youngModulus, poissonRatio, infinity, 0.0),
                                            shearModulus(youngModulus, poissonRatio) / (2.0 - poissonRatio), radius,
                                            mass, dampingRatioFromRestitution(0.2)};
   params.friction = StressDependentFrictionParams{0.8, 0.0, 0.0};
-  params.stressDependentFriction = false;
   const double rollingArm = rollingResistanceArm(BoundedRollingFrictionParams{rollingCoefficient}, radius, infinity);
 
   // Start at the static overlap under the normal component of gravity.
@@ -105,7 +105,7 @@ RollingRun rollSphere(double rollingCoefficient, double slopeAngle, bool startRo
                 radius - hertzOverlapFromForce(params.hertzMindlin.effectiveYoungModulus, radius, staticForce)};
   Vec3 velocity{1.0, 0.0, 0.0};
   Vec3 spin{0.0, startRolling ? 1.0 / radius : 0.0, 0.0}; // rolling towards +x spins about +y
-  BallastContactHistory history{};
+  ContactHistory history{};
   RollingRun run;
   double previousTorqueSign = 0.0;
   const Vec3 normal{0.0, 0.0, 1.0};
@@ -117,7 +117,7 @@ RollingRun rollSphere(double rollingCoefficient, double slopeAngle, bool startRo
     const ContactKinematics kinematics{radius - position.z, -velocity.z, normal,
                                        timeStep * tangentialPart(contactVelocity, normal),
                                        tangentialPart(contactVelocity, normal)};
-    const BallastContactResult contact = ballastContactForces(params, history, kinematics);
+    const ContactLawResult contact = contactLawForces(law, history, kinematics);
     history = contact.history;
     const Vec3 force = contact.normalForce * normal + contact.shearForce + mass * gravity;
     const Vec3 contactTorque = cross(branch, contact.shearForce);

@@ -1,4 +1,5 @@
-// GPU vs CPU reference on the same polyhedral bed: contact sets, contact forces and trajectories (label gpu).
+// GPU vs CPU reference on the same polyhedral bed: contact sets, contact forces and trajectories; the contact law's
+// path scenarios on the GPU against their closed forms (label gpu).
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -8,6 +9,7 @@
 #include <tuple>
 #include <vector>
 
+#include "PolyhedraScenarioRuns.hpp"
 #include "polyhedra/PolyhedraShapes.hpp"
 #include "polyhedra/PolyhedraSystem.hpp"
 
@@ -183,6 +185,31 @@ int main() {
          maxDifference(tc, tg), 1e-6 * std::max(floorForce, 1e-30));
   std::printf("timing (%d steps, %zu stones): CPU %.3f s, GPU %.3f s\n", steps - 1, cpu.stoneCount(), cpuSeconds,
               gpuSeconds);
+
+  // 3. The contact law's path scenarios (tests/kernels/ContactLawScenarios.hpp) on the CUDA backend: the closed
+  //    forms within the tolerances every path shares (the CPU reference passes the same in test_polyhedra_contact).
+  namespace scenario = railcosim::testing::scenario;
+  const scenario::CycleRecorder cycle = railcosim::testing::runCycleScenario(Backend::Cuda);
+  std::printf(
+      "GPU elasto-plastic cycle: F_max %.6f N at %.6e m, force vanishes in [%.6e, %.6e] m, closed-form "
+      "delta_p %.6e m\n",
+      cycle.peakForce, cycle.peakOverlap, cycle.zeroOverlap, cycle.releaseOverlap,
+      scenario::plasticOverlap(cycle.peakOverlap, cycle.peakForce));
+  expect(cycle.done, "cycle ran to zero force (1 = yes)", cycle.done ? 1.0 : 0.0, 1.0);
+  if (cycle.done) {
+    expect(cycle.peakForceError() < scenario::peakForceTolerance, "cycle: |F_max / virgin(delta_max) - 1|",
+           cycle.peakForceError(), scenario::peakForceTolerance);
+    expect(cycle.plasticOverlapStepsOutside() <= scenario::plasticOverlapStepTolerance,
+           "cycle: closed-form delta_p outside the zero-force bracket [steps]", cycle.plasticOverlapStepsOutside(),
+           scenario::plasticOverlapStepTolerance);
+    expect(cycle.unloadingForceError() < scenario::unloadingForceTolerance,
+           "cycle: |F / Hertz(delta - delta_p) - 1| halfway down", cycle.unloadingForceError(),
+           scenario::unloadingForceTolerance);
+  }
+  const double restitution = railcosim::testing::runImpactScenario(Backend::Cuda);
+  expect(std::fabs(restitution / scenario::impactRestitution - 1.0) < scenario::restitutionTolerance,
+         "impact: |e / 0.5 - 1|", std::fabs(restitution / scenario::impactRestitution - 1.0),
+         scenario::restitutionTolerance);
   std::printf("%s\n", failures == 0 ? "GPU-CPU comparison: PASS" : "GPU-CPU comparison: FAIL");
   return failures == 0 ? 0 : 1;
 }

@@ -36,7 +36,7 @@ struct OraclePoint {
   int region;
 };
 
-OraclePoint closestPointOnTriangle(const Vec3& p, const Vec3& a, const Vec3& b, const Vec3& c) {
+OraclePoint oracleClosestPoint(const Vec3& p, const Vec3& a, const Vec3& b, const Vec3& c) {
   const Vec3 ab = b - a, ac = c - a, ap = p - a;
   const double d1 = dot(ab, ap), d2 = dot(ac, ap);
   if (d1 <= 0.0 && d2 <= 0.0) return {a, 2};
@@ -73,8 +73,8 @@ std::vector<OracleContact> oracleContacts(const std::vector<double>& positions,
   std::vector<OracleContact> found;
   for (std::int32_t t : order) {
     const OraclePoint q =
-        closestPointOnTriangle(centre, nodeOf(positions, triangles[3 * t]), nodeOf(positions, triangles[3 * t + 1]),
-                               nodeOf(positions, triangles[3 * t + 2]));
+        oracleClosestPoint(centre, nodeOf(positions, triangles[3 * t]), nodeOf(positions, triangles[3 * t + 1]),
+                           nodeOf(positions, triangles[3 * t + 2]));
     const double distance = norm(centre - q.point);
     if (distance < radius) found.push_back({q.point, distance, q.region});
   }
@@ -450,8 +450,8 @@ BOOST_AUTO_TEST_CASE(grid_broad_phase_finds_every_touched_triangle) {
     grid.candidates(centre, radius, candidates);
     for (std::int32_t t = 0; t < topology.triangleCount(); ++t) {
       const OraclePoint q =
-          closestPointOnTriangle(centre, nodeOf(positions, triangles[3 * t]), nodeOf(positions, triangles[3 * t + 1]),
-                                 nodeOf(positions, triangles[3 * t + 2]));
+          oracleClosestPoint(centre, nodeOf(positions, triangles[3 * t]), nodeOf(positions, triangles[3 * t + 1]),
+                             nodeOf(positions, triangles[3 * t + 2]));
       if (norm(centre - q.point) < radius) BOOST_TEST(std::binary_search(candidates.begin(), candidates.end(), t));
     }
     const auto fromGrid = findSurfaceContacts(surface, centre, radius, candidates);

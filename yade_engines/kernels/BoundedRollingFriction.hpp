@@ -6,7 +6,7 @@
 #include <stdexcept>
 #include <string>
 
-#include "kernels/HostDevice.hpp"
+#include "railcosim/HostDevice.hpp"
 #include "kernels/Vector3.hpp"
 
 namespace railcosim::kernels {
@@ -17,12 +17,17 @@ struct BoundedRollingFrictionParams {
   double rollingFrictionCoefficient; // η_r [-]
 };
 
-// Rolling-resistance arm e_c = η_r R_r with R_r = R1 R2/(R1 + R2) (eqs. 5.2–5.3). A wall is radius2 =
-// INFINITY, giving e_c = η_r R1. Note: other codes use min(R1, R2), a factor 2 larger for equal spheres;
-// η_r must be calibrated with the definition used here. [m]
+// Rolling-resistance arm e_c = η_r R_r with R_r = R1 R2/(R1 + R2) the pair's effective radius (eqs. 5.2–5.3). [m]
+RAILCOSIM_HOST_DEVICE inline double rollingResistanceArm(const BoundedRollingFrictionParams& p,
+                                                         double effectiveRadius) {
+  return p.rollingFrictionCoefficient * effectiveRadius;
+}
+
+// The same from the two radii. A wall is radius2 = INFINITY, giving e_c = η_r R1. Note: other codes use
+// min(R1, R2), a factor 2 larger for equal spheres; η_r must be calibrated with the definition used here. [m]
 RAILCOSIM_HOST_DEVICE inline double rollingResistanceArm(const BoundedRollingFrictionParams& p, double radius1,
                                                          double radius2) {
-  return p.rollingFrictionCoefficient / (1.0 / radius1 + 1.0 / radius2);
+  return rollingResistanceArm(p, 1.0 / (1.0 / radius1 + 1.0 / radius2));
 }
 
 // Contribution of one contact to the particle's rolling-resistance budget M_r = Σ e_c |F_n|. [N m]

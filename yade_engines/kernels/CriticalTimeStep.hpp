@@ -4,7 +4,7 @@
 #include <cmath>
 
 #include "kernels/HertzMindlin.hpp"
-#include "kernels/HostDevice.hpp"
+#include "railcosim/HostDevice.hpp"
 #include "kernels/MathConstants.hpp"
 
 namespace railcosim::kernels {

@@ -6,7 +6,7 @@
 #include <stdexcept>
 #include <string>
 
-#include "kernels/HostDevice.hpp"
+#include "railcosim/HostDevice.hpp"
 #include "kernels/Vector3.hpp"
 
 namespace railcosim::kernels {

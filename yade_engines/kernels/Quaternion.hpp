@@ -3,7 +3,7 @@
 
 #include <cmath>
 
-#include "kernels/HostDevice.hpp"
+#include "railcosim/HostDevice.hpp"
 #include "kernels/Vector3.hpp"
 
 namespace railcosim::kernels {

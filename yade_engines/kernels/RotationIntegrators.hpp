@@ -34,7 +34,7 @@
 #include <stdexcept>
 #include <string>
 
-#include "kernels/HostDevice.hpp"
+#include "railcosim/HostDevice.hpp"
 #include "kernels/Quaternion.hpp"
 #include "kernels/Vector3.hpp"
 

@@ -4,8 +4,9 @@
 #include <cmath>
 #include <cstdint>
 
-#include "kernels/HostDevice.hpp"
+#include "railcosim/HostDevice.hpp"
 #include "kernels/Vector3.hpp"
+#include "railcosim/TriangleGeometry.hpp"
 
 namespace railcosim::kernels {
 
@@ -53,16 +54,16 @@ struct SurfaceContactSettings {
 
 // One sphere–surface contact, ready for the contact law and for lumping the force to the FEM nodes.
 struct SurfaceContact {
-  std::int32_t triangle;     // triangle the contact is assigned to; nodes/weights refer to it
-  SurfaceFeature feature;    // face interior, edge or vertex
-  std::int32_t featureIndex; // triangle index (face), global edge index (edge) or node index (vertex)
-  std::int32_t nodes[3];     // the assigned triangle's nodes
-  double weights[3];         // shape-function values N_i of the contact point on those nodes (eq. 4.8, 4.17)
-  Vec3 point;                // contact point Pc on the surface [m]
-  Vec3 normal;               // unit normal from the surface towards the sphere centre
-  double distance;           // |C − Pc| [m]
-  double overlap;            // δ = R − |C − Pc| > 0 [m]
-  Vec3 velocity;             // surface velocity at Pc, Σ N_i v_i [m/s]
+  std::int32_t triangle;      // triangle the contact is assigned to; nodes/weights refer to it
+  SurfaceFeature feature;     // face interior, edge or vertex
+  std::int32_t featureIndex;  // triangle index (face), global edge index (edge) or node index (vertex)
+  std::int32_t nodes[3];      // the assigned triangle's nodes
+  BarycentricWeights weights; // shape-function values N_i of the contact point on those nodes (eq. 4.8, 4.17)
+  Vec3 point;                 // contact point Pc on the surface [m]
+  Vec3 normal;                // unit normal from the surface towards the sphere centre
+  double distance;            // |C − Pc| [m]
+  double overlap;             // δ = R − |C − Pc| > 0 [m]
+  Vec3 velocity;              // surface velocity at Pc, Σ N_i v_i [m/s]
 };
 
 // Number of contacts written by findSurfaceContacts.
@@ -109,11 +110,11 @@ RAILCOSIM_HOST_DEVICE inline Vec3 interpolateSurfaceVelocity(const SurfaceMeshVi
   return velocity;
 }
 
-// Share of the contact force F carried by local node k of the contact's triangle, f_k = N_k F (eq. 4.20).
-// Σ f_k = F exactly, and Σ x_k × f_k = Pc × F because Σ N_k x_k = Pc (force and moment conserved).
-// Pass the force the sphere exerts on the surface (the reaction of the force on the sphere).
+// Share of the contact force F carried by local node k of the contact's triangle, f_k = N_k F (eq. 4.20;
+// railcosim/TriangleGeometry.hpp). Σ f_k = F, and Σ x_k × f_k = Pc × F because Σ N_k x_k = Pc (force and moment
+// conserved). Pass the force the sphere exerts on the surface (the reaction of the force on the sphere).
 RAILCOSIM_HOST_DEVICE inline Vec3 contactNodalForce(const SurfaceContact& contact, const Vec3& force, int k) {
-  return contact.weights[k] * force;
+  return lumpedShare(contact.weights, force, k);
 }
 
 // Adds the three nodal shares of `force` into `nodalForces` (3 per node). Not atomic: device code that
@@ -197,24 +198,19 @@ RAILCOSIM_HOST_DEVICE inline bool triangleContact(const SurfaceMeshView& surface
     if (!(signedDistance < radius && signedDistance > -radius)) return false;
     if (!settings.twoSided && signedDistance < 0.0) return false;
     const Vec3 projection = centre - signedDistance * unitNormal; // C_π, eq. 4.5
-    double subArea[3];
+    // Sub-triangle weights of C_π (eqs. 4.6–4.9): a negative one lies outside the edge opposite its node.
+    const BarycentricWeights weights = planeWeights(projection, vertex[0], vertex[1], vertex[2], unitNormal);
     bool inside = true;
     for (int a = 0; a < 3; ++a) {
-      const Vec3 edge = vertex[(a + 1) % 3] - vertex[a];                 // e^a, eq. 4.6
-      subArea[a] = dot(cross(edge, projection - vertex[a]), unitNormal); // s^a = 2Δ_a, eq. 4.7
-      outside[a] = subArea[a] < 0.0;
+      outside[a] = weights[(a + 2) % 3] < 0.0;
       inside = inside && !outside[a];
     }
     if (inside) {
-      const double total = subArea[0] + subArea[1] + subArea[2];
       contact.triangle = triangle;
       contact.feature = SurfaceFeature::Face;
       contact.featureIndex = triangle;
-      for (int k = 0; k < 3; ++k) {
-        contact.nodes[k] = n[k];
-        // The sub-triangle on edge a weights the node opposite to it (eq. 4.8–4.9).
-        contact.weights[(k + 2) % 3] = subArea[k] / total;
-      }
+      for (int k = 0; k < 3; ++k) contact.nodes[k] = n[k];
+      contact.weights = weights;
       contact.point = projection;
       const double distance = signedDistance >= 0.0 ? signedDistance : -signedDistance;
       contact.normal = signedDistance >= 0.0 ? unitNormal : -unitNormal;

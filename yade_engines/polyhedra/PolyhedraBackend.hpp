@@ -25,6 +25,9 @@ struct HostData {
   std::vector<double> triangleForceSum, trianglePointSum, triangleWeightSum;
   int maxPairs = 0, maxWalls = 0;
   std::vector<ContactSlot> pairSlots, pairSlotsPrevious, wallSlots, wallSlotsPrevious;
+  // Normal-model history beside the slots (SystemView::pairNormalHistory); empty when the law keeps none.
+  std::vector<kernels::NormalHistory> pairNormalHistory, pairNormalHistoryPrevious, wallNormalHistory,
+      wallNormalHistoryPrevious;
   std::vector<ContactOutput> pairOutput, wallOutput;
   std::vector<ContactGeometry> wallGeometry;
   std::vector<std::int32_t> pairCount, pairCountPrevious, wallCount, wallCountPrevious;
@@ -38,7 +41,7 @@ struct HostData {
   double featureTolerance = 0.0;
   int rebuildInterval = 10;
   bool adaptiveRebuild = true; // skip a due rebuild while no stone can outgrow the lists (Parameters)
-  ContactLawConstants stoneLaw{}, wallLaw{};
+  kernels::ContactLaw stoneLaw{}, wallLaw{};
   unsigned long long counters[counterCount] = {};
   bool forcesValid = false; // force/torque hold the contact forces of the current state
 

@@ -4,7 +4,7 @@
 #include <cmath>
 #include <cstdint>
 
-#include "kernels/HostDevice.hpp"
+#include "railcosim/HostDevice.hpp"
 #include "kernels/Quaternion.hpp"
 #include "kernels/Vector3.hpp"
 

@@ -4,10 +4,11 @@
 #include <cmath>
 #include <cstdint>
 
-#include "kernels/HertzMindlin.hpp"
-#include "kernels/HostDevice.hpp"
+#include "kernels/ContactLaw.hpp"
 #include "kernels/RotationIntegrators.hpp"
 #include "kernels/Vector3.hpp"
+#include "railcosim/HostDevice.hpp"
+#include "railcosim/TriangleGeometry.hpp"
 #include "polyhedra/PolyhedraGeometry.hpp"
 
 #if defined(__CUDA_ARCH__)
@@ -36,11 +37,11 @@ struct ShapeData {
 struct alignas(16) ContactSlot {
   std::int32_t partner : 30; // stone j > i, or triangle index; −1: unused
   std::uint32_t active : 2;  // 1 if in contact at the last evaluation, 2 a duplicate wall contact, 0 not
-  float overlap;             // last overlap δ [m]: only the unloading correction of the tangential spring (a
-                             // ratio of overlaps) and contact reports read it, single precision suffices
+  float tangentialStiffness; // k_t of the last evaluation [N/m]: only the unloading correction of the tangential
+                             // spring reads it (a ratio of stiffnesses), single precision suffices
   double normal[3]; // last contact normal or separating axis (filter axis, GJK start without a simplex, core-overlap
                     // fallback)
-  double elasticShear[3]; // elastic tangential force on the partner [N] (kernels/HertzMindlin.hpp)
+  double elasticShear[3]; // elastic tangential force on the partner [N] (kernels/ContactLaw.hpp)
   std::uint64_t simplex;  // last GJK simplex (support vertex pairs, CoreDistance::simplex): warm start; 0 if none
 };
 static_assert(sizeof(ContactSlot) == 64, "a contact slot fills two memory sectors exactly");
@@ -50,6 +51,7 @@ constexpr int partnerLimit = 1 << 29; // stones and triangles a 30-bit signed pa
 struct ContactOutput {
   double point[3];
   double force[3]; // on the partner [N]
+  double overlap;  // δ [m]
 };
 
 // Narrow-phase result of one candidate (kept between the two passes over wall candidates).
@@ -72,13 +74,6 @@ enum Counter : int {
   counterMaxDisplacement = 5, // end of a rebuild interval: largest displacement since the last rebuild (double bits)
   counterMaxSpeed = 6,        // end of a rebuild interval: largest stone speed (double bits)
   counterCount = 7
-};
-
-struct ContactLawConstants {
-  double effectiveYoungModulus; // E* [Pa]
-  double effectiveShearModulus; // G* [Pa]
-  double dampingRatio;          // γ from the restitution [-]
-  double friction;              // μ [-]
 };
 
 // Raw pointers into host or device arrays; the same view drives both backends.
@@ -107,9 +102,13 @@ struct SystemView {
   int maxPairs;
   int maxWalls;
   ContactSlot* pairSlots; // stoneCount × maxPairs
+  // History of the normal sub-model per candidate slot (elasto-plastic Pohrt–Popov: F_max, δ_p), beside the slots so
+  // that the 64-byte slot stays whole; null when the selected normal model keeps none (kernels::normalHistorySlots).
+  kernels::NormalHistory* pairNormalHistory; // stoneCount × maxPairs, or null
   ContactOutput* pairOutput;
   std::int32_t* pairCount;
-  ContactSlot* wallSlots; // stoneCount × maxWalls
+  ContactSlot* wallSlots;                    // stoneCount × maxWalls
+  kernels::NormalHistory* wallNormalHistory; // stoneCount × maxWalls, or null
   ContactOutput* wallOutput;
   ContactGeometry* wallGeometry; // stoneCount × maxWalls: narrow-phase result of the current step
   std::int32_t* wallCount;
@@ -129,8 +128,10 @@ struct SystemView {
   // records them in the last step of each graph chunk (48 scattered bytes per contact and step saved in
   // the others); the CPU reference in every step.
   bool recordOutput;
-  ContactLawConstants stoneLaw;
-  ContactLawConstants wallLaw;
+  // The contact law of stone pairs and of stone–wall contacts (kernels/ContactLaw.hpp: sub-models selected by keyword,
+  // materials mixed); R* and m* are set per contact.
+  kernels::ContactLaw stoneLaw;
+  kernels::ContactLaw wallLaw;
   unsigned long long* counters;
 };
 
@@ -147,10 +148,11 @@ RAILCOSIM_HOST_DEVICE inline void store3(double* a, int i, const Vec3& v) {
 // Atomic accumulation: hardware atomics on the device, OpenMP atomics in the CPU reference.
 // Contact point and force for contacts(), in the steps that record them (SystemView::recordOutput).
 RAILCOSIM_HOST_DEVICE inline void writeContactOutput(const SystemView& s, ContactOutput& out, const Vec3& point,
-                                                     const Vec3& force) {
+                                                     const Vec3& force, double overlap) {
   if (!s.recordOutput) return;
   store3(out.point, 0, point);
   store3(out.force, 0, force);
+  out.overlap = overlap;
 }
 
 RAILCOSIM_HOST_DEVICE inline void atomicAccumulate(double* address, double value) {
@@ -285,54 +287,48 @@ RAILCOSIM_HOST_DEVICE inline void findCellBounds(const SystemView& s, int k) {
   if (k == s.stoneCount - 1 || s.cellKey[k + 1] != key) s.cellEnd[key] = k + 1;
 }
 
-// Copies the history of partner `partner` from the previous list of stone i, if it was there. Both lists come
-// from the same cell scan, so their partners mostly appear in the same order: the search goes on from just
-// after the last match (`cursor`, wrapping round), usually a single read instead of a scan of the old list.
-RAILCOSIM_HOST_DEVICE inline ContactSlot carriedSlot(const ContactSlot* previous, int previousCount, int partner,
-                                                     int& cursor) {
+// Where partner `partner` stood in the previous list of stone i (−1 if absent), so that its history is carried over.
+// Both lists come from the same cell scan, so their partners mostly appear in the same order: the search goes on
+// from just after the last match (`cursor`, wrapping round), usually a single read instead of a scan of the old list.
+RAILCOSIM_HOST_DEVICE inline int previousSlotIndex(const ContactSlot* previous, int previousCount, int partner,
+                                                   int& cursor) {
   for (int n = 0; n < previousCount; ++n) {
     const int k = cursor + n < previousCount ? cursor + n : cursor + n - previousCount;
     if (previous[k].partner == partner) {
       cursor = k + 1 < previousCount ? k + 1 : 0;
-      return previous[k];
+      return k;
     }
   }
-  return ContactSlot{partner, 0, 0.0f, {0.0, 0.0, 0.0}, {0.0, 0.0, 0.0}, 0};
+  return -1;
 }
 
-// Squared distance from p to triangle (a,b,c) (Ericson §5.1.5), for the wall candidate test.
-RAILCOSIM_HOST_DEVICE inline Vec3 closestPointOnTriangle(const Vec3& p, const Vec3& a, const Vec3& b, const Vec3& c) {
-  const Vec3 ab = b - a, ac = c - a, ap = p - a;
-  const double d1 = kernels::dot(ab, ap), d2 = kernels::dot(ac, ap);
-  if (d1 <= 0.0 && d2 <= 0.0) return a;
-  const Vec3 bp = p - b;
-  const double d3 = kernels::dot(ab, bp), d4 = kernels::dot(ac, bp);
-  if (d3 >= 0.0 && d4 <= d3) return b;
-  const double vc = d1 * d4 - d3 * d2;
-  if (vc <= 0.0 && d1 >= 0.0 && d3 <= 0.0) return a + (d1 / (d1 - d3)) * ab;
-  const Vec3 cp = p - c;
-  const double d5 = kernels::dot(ab, cp), d6 = kernels::dot(ac, cp);
-  if (d6 >= 0.0 && d5 <= d6) return c;
-  const double vb = d5 * d2 - d1 * d6;
-  if (vb <= 0.0 && d2 >= 0.0 && d6 <= 0.0) return a + (d2 / (d2 - d6)) * ac;
-  const double va = d3 * d6 - d5 * d4;
-  if (va <= 0.0 && (d4 - d3) >= 0.0 && (d5 - d6) >= 0.0) return b + ((d4 - d3) / ((d4 - d3) + (d5 - d6))) * (c - b);
-  const double denominator = 1.0 / (va + vb + vc);
-  return a + (vb * denominator) * ab + (vc * denominator) * ac;
+// Slot `count` of a new list for `partner`: the previous slot `k` (and its normal history, where one is kept), or a
+// fresh one.
+RAILCOSIM_HOST_DEVICE inline void carrySlot(ContactSlot* out, kernels::NormalHistory* outNormal, int count,
+                                            const ContactSlot* previous, const kernels::NormalHistory* previousNormal,
+                                            int k, int partner) {
+  out[count] = k >= 0 ? previous[k] : ContactSlot{partner, 0, 0.0f, {0.0, 0.0, 0.0}, {0.0, 0.0, 0.0}, 0};
+  if (outNormal) outNormal[count] = k >= 0 ? previousNormal[k] : kernels::NormalHistory{0.0, 0.0};
 }
 
 // Rebuilds the candidate lists of stone i from the sorted grid (partners j > i within the bounding
 // distance plus skin) and the triangle candidates, carrying the contact history over by partner id.
+// `previous*NormalHistory`: the normal histories of the previous lists (null where none is kept).
 RAILCOSIM_HOST_DEVICE inline void buildNeighbours(const SystemView& s, int i, const ContactSlot* previousPairs,
                                                   const std::int32_t* previousPairCount,
                                                   const ContactSlot* previousWalls,
-                                                  const std::int32_t* previousWallCount) {
+                                                  const std::int32_t* previousWallCount,
+                                                  const kernels::NormalHistory* previousPairNormalHistory,
+                                                  const kernels::NormalHistory* previousWallNormalHistory) {
   const Vec3 x = load3(s.position, i);
   const double radius = s.shapes[s.shape[i]].boundingRadius;
   long long cx, cy, cz;
   cellOf(s, x, cx, cy, cz);
-  ContactSlot* out = s.pairSlots + static_cast<long long>(i) * s.maxPairs;
-  const ContactSlot* old = previousPairs + static_cast<long long>(i) * s.maxPairs;
+  const long long pairBase = static_cast<long long>(i) * s.maxPairs;
+  ContactSlot* out = s.pairSlots + pairBase;
+  const ContactSlot* old = previousPairs + pairBase;
+  kernels::NormalHistory* outNormal = s.pairNormalHistory ? s.pairNormalHistory + pairBase : nullptr;
+  const kernels::NormalHistory* oldNormal = s.pairNormalHistory ? previousPairNormalHistory + pairBase : nullptr;
   const int oldCount = previousPairCount[i];
   int count = 0;
   int needed = 0;
@@ -357,7 +353,10 @@ RAILCOSIM_HOST_DEVICE inline void buildNeighbours(const SystemView& s, int i, co
           const double reach = radius + s.shapes[s.shape[j]].boundingRadius + s.skin;
           if (kernels::squaredNorm(load3(s.position, j) - x) > reach * reach) continue;
           ++needed;
-          if (count < s.maxPairs) out[count++] = carriedSlot(old, oldCount, j, cursor);
+          if (count < s.maxPairs) {
+            carrySlot(out, outNormal, count, old, oldNormal, previousSlotIndex(old, oldCount, j, cursor), j);
+            ++count;
+          }
         }
       }
     }
@@ -365,8 +364,11 @@ RAILCOSIM_HOST_DEVICE inline void buildNeighbours(const SystemView& s, int i, co
   s.pairCount[i] = count;
   if (needed > s.maxPairs) atomicMaximum(&s.counters[counterPairOverflow], static_cast<unsigned long long>(needed));
 
-  ContactSlot* wallOut = s.wallSlots + static_cast<long long>(i) * s.maxWalls;
-  const ContactSlot* wallOld = previousWalls + static_cast<long long>(i) * s.maxWalls;
+  const long long wallBase = static_cast<long long>(i) * s.maxWalls;
+  ContactSlot* wallOut = s.wallSlots + wallBase;
+  const ContactSlot* wallOld = previousWalls + wallBase;
+  kernels::NormalHistory* wallOutNormal = s.wallNormalHistory ? s.wallNormalHistory + wallBase : nullptr;
+  const kernels::NormalHistory* wallOldNormal = s.wallNormalHistory ? previousWallNormalHistory + wallBase : nullptr;
   const int wallOldCount = previousWallCount[i];
   int wallCount = 0;
   int wallNeeded = 0;
@@ -378,7 +380,11 @@ RAILCOSIM_HOST_DEVICE inline void buildNeighbours(const SystemView& s, int i, co
     const double reach = radius + s.skin;
     if (kernels::squaredNorm(closestPointOnTriangle(x, a, b, c) - x) > reach * reach) continue;
     ++wallNeeded;
-    if (wallCount < s.maxWalls) wallOut[wallCount++] = carriedSlot(wallOld, wallOldCount, t, wallCursor);
+    if (wallCount < s.maxWalls) {
+      carrySlot(wallOut, wallOutNormal, wallCount, wallOld, wallOldNormal,
+                previousSlotIndex(wallOld, wallOldCount, t, wallCursor), t);
+      ++wallCount;
+    }
   }
   s.wallCount[i] = wallCount;
   if (wallNeeded > s.maxWalls)
@@ -410,7 +416,7 @@ struct ContactResult {
 RAILCOSIM_HOST_DEVICE inline void releaseContact(ContactSlot& slot, const Vec3& axis) {
   slot.active = 0;
   slot.elasticShear[0] = slot.elasticShear[1] = slot.elasticShear[2] = 0.0;
-  slot.overlap = 0.0f;
+  slot.tangentialStiffness = 0.0f;
   slot.normal[0] = axis.x;
   slot.normal[1] = axis.y;
   slot.normal[2] = axis.z;
@@ -494,58 +500,61 @@ RAILCOSIM_HOST_DEVICE inline ContactGeometry contactGeometry(const ConvexCore& A
   return geometryFromDistance(A, B, radiusA, radiusB, d, guess, featureTolerance, slot, counters);
 }
 
-// Contact law of a touching candidate: Hertz normal force with damping and the incremental Coulomb-capped
-// tangential force (kernels/HertzMindlin.hpp); updates the slot's history and returns the force on B.
+// Contact law of a touching candidate: the composed law of kernels/ContactLaw.hpp for this contact's R* and m*;
+// updates the slot's history (and the normal history, where the law keeps one) and returns the force on B.
 // effectiveRadius: Hertz curvature of the dilation (Ullrich 2022 eq. 2.20: the dilating spheres touch, so
 // R* = r_A r_B / (r_A + r_B); r_A for a flat wall).
 RAILCOSIM_HOST_DEVICE inline Vec3 contactForce(const ContactGeometry& g, double effectiveRadius, double effectiveMass,
-                                               const ContactLawConstants& law, const ContactKinematics& kinematicsA,
-                                               const ContactKinematics& kinematicsB, double timeStep,
-                                               ContactSlot& slot) {
+                                               const kernels::ContactLaw& pairLaw, const ContactKinematics& kinematicsA,
+                                               const ContactKinematics& kinematicsB, double timeStep, ContactSlot& slot,
+                                               kernels::NormalHistory* normalHistory) {
   const Vec3 n = g.normal;
   const Vec3 velocityA = kinematicsA.velocity + kernels::cross(kinematicsA.omega, g.point - kinematicsA.centre);
   const Vec3 velocityB = kinematicsB.velocity + kernels::cross(kinematicsB.omega, g.point - kinematicsB.centre);
   const Vec3 relative = velocityB - velocityA; // of B with respect to A at the contact point
-  const double overlapRate = -kernels::dot(relative, n);
-
-  kernels::HertzMindlinParams params{law.effectiveYoungModulus, law.effectiveShearModulus, effectiveRadius,
-                                     effectiveMass, law.dampingRatio};
-  const double normalForce = kernels::hertzNormalForce(params, g.overlap, overlapRate);
-  const Vec3 history{slot.elasticShear[0], slot.elasticShear[1], slot.elasticShear[2]};
-  // The slot keeps the last overlap in single precision. The unloading correction is one-sided (it scales
-  // the spring whenever the stiffness fell), so an unchanged overlap must compare equal: a rounded-up copy
-  // would shrink a static spring by up to 3e-8 every step (3 % per 1e6 steps).
-  const double previousOverlap = !slot.active                                    ? 0.0
-                                 : static_cast<float>(g.overlap) == slot.overlap ? g.overlap
-                                                                                 : slot.overlap;
   const Vec3 tangentialVelocity = kernels::tangentialPart(relative, n);
-  const kernels::TangentialForceResult tangential = kernels::mindlinTangentialForce(
-      params, slot.active ? history : Vec3{0.0, 0.0, 0.0}, n, g.overlap, previousOverlap, timeStep * tangentialVelocity,
-      tangentialVelocity, law.friction, normalForce);
+
+  kernels::ContactLaw law = pairLaw;
+  kernels::setContactGeometry(law, effectiveRadius, effectiveMass);
+  kernels::ContactHistory history{Vec3{0.0, 0.0, 0.0}, 0.0, kernels::NormalHistory{0.0, 0.0}};
+  if (slot.active) {
+    history.elasticShearForce = Vec3{slot.elasticShear[0], slot.elasticShear[1], slot.elasticShear[2]};
+    history.previousTangentialStiffness = slot.tangentialStiffness;
+    if (normalHistory) history.normal = *normalHistory;
+  }
+  const kernels::ContactStiffness stiffness = kernels::contactStiffness(law, history.normal, g.overlap);
+  // The slot keeps the last k_t in single precision. The unloading correction is one-sided (it scales the spring
+  // whenever the stiffness fell), so an unchanged stiffness must compare equal: a rounded-up copy would shrink a
+  // static spring by up to 3e-8 every step (3 % per 1e6 steps).
+  if (slot.active && static_cast<float>(stiffness.tangential) == slot.tangentialStiffness)
+    history.previousTangentialStiffness = stiffness.tangential;
+  const kernels::ContactKinematics kinematics{g.overlap, -kernels::dot(relative, n), n, timeStep * tangentialVelocity,
+                                              tangentialVelocity};
+  const kernels::ContactLawResult r = kernels::contactLawForces(law, history, kinematics, stiffness);
 
   slot.active = 1;
-  slot.elasticShear[0] = tangential.elasticForce.x;
-  slot.elasticShear[1] = tangential.elasticForce.y;
-  slot.elasticShear[2] = tangential.elasticForce.z;
+  slot.elasticShear[0] = r.history.elasticShearForce.x;
+  slot.elasticShear[1] = r.history.elasticShearForce.y;
+  slot.elasticShear[2] = r.history.elasticShearForce.z;
   slot.normal[0] = n.x;
   slot.normal[1] = n.y;
   slot.normal[2] = n.z;
-  slot.overlap = static_cast<float>(g.overlap);
-  return normalForce * n + tangential.force;
+  slot.tangentialStiffness = static_cast<float>(r.history.previousTangentialStiffness);
+  if (normalHistory) *normalHistory = r.history.normal;
+  return r.normalForce * n + r.shearForce;
 }
 
 // Both steps for one candidate: the history slot is updated and the force on B returned (−force acts on A).
-RAILCOSIM_HOST_DEVICE inline ContactResult evaluateContact(const ConvexCore& A, const ConvexCore& B, double radiusA,
-                                                           double radiusB, double effectiveRadius, double effectiveMass,
-                                                           const ContactLawConstants& law,
-                                                           const ContactKinematics& kinematicsA,
-                                                           const ContactKinematics& kinematicsB, double timeStep,
-                                                           double featureTolerance, ContactSlot& slot,
-                                                           unsigned long long* counters) {
+RAILCOSIM_HOST_DEVICE inline ContactResult evaluateContact(
+    const ConvexCore& A, const ConvexCore& B, double radiusA, double radiusB, double effectiveRadius,
+    double effectiveMass, const kernels::ContactLaw& law, const ContactKinematics& kinematicsA,
+    const ContactKinematics& kinematicsB, double timeStep, double featureTolerance, ContactSlot& slot,
+    unsigned long long* counters, kernels::NormalHistory* normalHistory = nullptr) {
   const ContactGeometry g = contactGeometry(A, B, radiusA, radiusB, kinematicsB.centre - kinematicsA.centre,
                                             featureTolerance, slot, counters);
   if (!g.touching) return ContactResult{false, 0.0, Vec3{0.0, 0.0, 0.0}, Vec3{0.0, 0.0, 0.0}, Vec3{0.0, 0.0, 0.0}};
-  const Vec3 force = contactForce(g, effectiveRadius, effectiveMass, law, kinematicsA, kinematicsB, timeStep, slot);
+  const Vec3 force =
+      contactForce(g, effectiveRadius, effectiveMass, law, kinematicsA, kinematicsB, timeStep, slot, normalHistory);
   return ContactResult{true, g.overlap, g.normal, g.point, force};
 }
 
@@ -576,7 +585,7 @@ RAILCOSIM_HOST_DEVICE inline bool pairProvenApart(const SystemView& s, int i, lo
   if (apart && slotRef.active) {
     slotRef.active = 0;
     slotRef.elasticShear[0] = slotRef.elasticShear[1] = slotRef.elasticShear[2] = 0.0;
-    slotRef.overlap = 0.0f;
+    slotRef.tangentialStiffness = 0.0f;
   }
   return apart;
 }
@@ -627,11 +636,12 @@ RAILCOSIM_HOST_DEVICE inline PairOutcome pairContact(const SystemView& s, int i,
   const ContactKinematics kinematicsA{load3(s.velocity, i), s.rotation[i].angularVelocity, load3(s.position, i)};
   const ContactKinematics kinematicsB{load3(s.velocity, partner), s.rotation[partner].angularVelocity,
                                       load3(s.position, partner)};
-  const Vec3 force = contactForce(g, kernels::effectiveRadius(shapeA.dilationRadius, shapeB.dilationRadius),
-                                  kernels::effectiveMass(shapeA.mass, shapeB.mass), s.stoneLaw, kinematicsA,
-                                  kinematicsB, s.timeStep, slot);
+  const Vec3 force =
+      contactForce(g, kernels::effectiveRadius(shapeA.dilationRadius, shapeB.dilationRadius),
+                   kernels::effectiveMass(shapeA.mass, shapeB.mass), s.stoneLaw, kinematicsA, kinematicsB, s.timeStep,
+                   slot, s.pairNormalHistory ? s.pairNormalHistory + index : nullptr);
   s.pairSlots[index] = slot;
-  writeContactOutput(s, s.pairOutput[index], g.point, force);
+  writeContactOutput(s, s.pairOutput[index], g.point, force, g.overlap);
   atomicAccumulate3(s.force, partner, force);
   atomicAccumulate3(s.torque, partner, kernels::cross(g.point - kinematicsB.centre, force));
   atomicAccumulate3(s.force, i, -force);
@@ -660,9 +670,9 @@ RAILCOSIM_HOST_DEVICE inline ConvexCore triangleCore(const SystemView& s, int tr
 
 // Point of triangle t nearest to x: lever arm and barycentric wall velocity of a wall contact.
 RAILCOSIM_HOST_DEVICE inline Vec3 nearestOnTriangle(const SystemView& s, int t, const Vec3& x) {
-  return closestPointOnTriangle(x, load3(s.nodePosition, s.triangles[3 * t]),
-                                load3(s.nodePosition, s.triangles[3 * t + 1]),
-                                load3(s.nodePosition, s.triangles[3 * t + 2]));
+  return railcosim::closestPointOnTriangle(x, load3(s.nodePosition, s.triangles[3 * t]),
+                                           load3(s.nodePosition, s.triangles[3 * t + 1]),
+                                           load3(s.nodePosition, s.triangles[3 * t + 2]));
 }
 
 // True when wall candidate `index` of stone i is proven apart along the slot's axis (history released,
@@ -677,7 +687,7 @@ RAILCOSIM_HOST_DEVICE inline bool wallProvenApart(const SystemView& s, int i, lo
     ContactSlot& slotRef = s.wallSlots[index];
     slotRef.active = 0;
     slotRef.elasticShear[0] = slotRef.elasticShear[1] = slotRef.elasticShear[2] = 0.0;
-    slotRef.overlap = 0.0f;
+    slotRef.tangentialStiffness = 0.0f;
   }
   s.wallGeometry[index].touching = false;
   return true;
@@ -751,21 +761,17 @@ RAILCOSIM_HOST_DEVICE inline int stoneWallForces(const SystemView& s, int i) {
     const int partner = slot.partner;
     const int n0 = s.triangles[3 * partner], n1 = s.triangles[3 * partner + 1], n2 = s.triangles[3 * partner + 2];
     const Vec3 a = load3(s.nodePosition, n0), b = load3(s.nodePosition, n1), c = load3(s.nodePosition, n2);
-    const Vec3 nearest = closestPointOnTriangle(xA, a, b, c);
-    const Vec3 e0 = b - a, e1 = c - a, e2 = nearest - a;
-    const double d00 = kernels::dot(e0, e0), d01 = kernels::dot(e0, e1), d11 = kernels::dot(e1, e1);
-    const double d20 = kernels::dot(e2, e0), d21 = kernels::dot(e2, e1);
-    const double denominator = d00 * d11 - d01 * d01;
-    const double wb = denominator > 0.0 ? (d11 * d20 - d01 * d21) / denominator : 0.0;
-    const double wc = denominator > 0.0 ? (d00 * d21 - d01 * d20) / denominator : 0.0;
-    const Vec3 velocity =
-        (1.0 - wb - wc) * load3(s.nodeVelocity, n0) + wb * load3(s.nodeVelocity, n1) + wc * load3(s.nodeVelocity, n2);
+    // The triangle's point nearest the stone's centre: lever arm and barycentric wall velocity.
+    const BarycentricWeights weights = closestPointWeights(xA, a, b, c);
+    const Vec3 nearest = pointAt(weights, a, b, c);
+    const Vec3 velocity = weights[0] * load3(s.nodeVelocity, n0) + weights[1] * load3(s.nodeVelocity, n1) +
+                          weights[2] * load3(s.nodeVelocity, n2);
     // A flat rigid wall has no rotation, so its lever arm is irrelevant; no dilation: R* = r_A, m* = m_A.
     const ContactKinematics kinematicsA{load3(s.velocity, i), s.rotation[i].angularVelocity, xA};
     const ContactKinematics kinematicsB{velocity, Vec3{0.0, 0.0, 0.0}, nearest};
     // A duplicate keeps its tangential spring up to date too (it takes over when its twin separates).
-    const Vec3 force =
-        contactForce(g, shapeA.dilationRadius, shapeA.mass, s.wallLaw, kinematicsA, kinematicsB, s.timeStep, slot);
+    const Vec3 force = contactForce(g, shapeA.dilationRadius, shapeA.mass, s.wallLaw, kinematicsA, kinematicsB,
+                                    s.timeStep, slot, s.wallNormalHistory ? s.wallNormalHistory + index : nullptr);
     bool duplicate = false;
     for (int m = 0; m < acceptedCount; ++m) {
       duplicate = duplicate || (kernels::dot(acceptedNormal[m], g.normal) > 1.0 - 1e-9 &&
@@ -783,7 +789,7 @@ RAILCOSIM_HOST_DEVICE inline int stoneWallForces(const SystemView& s, int i) {
     }
     s.wallSlots[index] = slot;
     ++active;
-    writeContactOutput(s, s.wallOutput[index], g.point, force);
+    writeContactOutput(s, s.wallOutput[index], g.point, force, g.overlap);
     forceA -= force;
     torqueA -= kernels::cross(g.point - xA, force);
     accumulateTriangleSums(s, partner, force, g.point);

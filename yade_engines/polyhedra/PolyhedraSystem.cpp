@@ -136,24 +136,22 @@ Quat quaternionFromMatrix(const double m[3][3]) {
   return normalized(q);
 }
 
-ContactLawConstants lawOf(const Material& a, const Material& b, const char* which) {
-  kernels::validateRestitution(a.restitution, which);
-  if (!(a.youngModulus > 0.0) || !(b.youngModulus > 0.0) || !(a.poissonRatio > -1.0 && a.poissonRatio < 0.5) ||
-      !(b.poissonRatio > -1.0 && b.poissonRatio < 0.5) || !(a.friction >= 0.0)) {
-    std::ostringstream m;
-    m << "material of " << which << " contacts is invalid (E=" << a.youngModulus << " Pa, nu=" << a.poissonRatio
-      << ", mu=" << a.friction << "): need E > 0, -1 < nu < 0.5, mu >= 0";
-    fail("PolyhedraSystem", m.str());
+kernels::ContactMaterial contactMaterialOf(const Material& m) {
+  return kernels::ContactMaterial{
+      m.youngModulus,     m.poissonRatio,     m.restitution,      m.friction,         m.roughnessRms,
+      m.fractalDimension, m.plasticUnloading, m.frictionExponent, m.maxContactStress, 0.0};
+}
+
+// The one mixing rule of the contact law (kernels/ContactLaw.hpp). Stones are separate particles, so the
+// stress-dependent friction of different clusters applies between them (where its parameters are set), never against
+// a wall; they are not spheres, so no rolling resistance.
+kernels::ContactLaw lawOf(const Material& a, const Material& b, bool betweenStones, const char* which) {
+  try {
+    return kernels::mixContactLaw(contactMaterialOf(a), contactMaterialOf(b),
+                                  kernels::ContactPairOptions{betweenStones, false});
+  } catch (const std::invalid_argument& e) {
+    fail("PolyhedraSystem", std::string("material of ") + which + " contacts: " + e.what());
   }
-  ContactLawConstants law{};
-  law.effectiveYoungModulus =
-      kernels::effectiveYoungModulus(a.youngModulus, a.poissonRatio, b.youngModulus, b.poissonRatio);
-  law.effectiveShearModulus =
-      kernels::effectiveShearModulus(kernels::shearModulus(a.youngModulus, a.poissonRatio), a.poissonRatio,
-                                     kernels::shearModulus(b.youngModulus, b.poissonRatio), b.poissonRatio);
-  law.dampingRatio = kernels::dampingRatioFromRestitution(a.restitution);
-  law.friction = a.friction;
-  return law;
 }
 
 } // namespace
@@ -289,8 +287,8 @@ PolyhedraSystem::PolyhedraSystem(const Parameters& p) : implementation_(std::mak
   d.adaptiveRebuild = p.adaptiveRebuild;
   d.maxPairs = p.maxNeighbours;
   d.maxWalls = p.maxWallNeighbours;
-  d.stoneLaw = lawOf(p.stone, p.stone, "stone-stone");
-  d.wallLaw = lawOf(p.wall, p.stone, "stone-wall");
+  d.stoneLaw = lawOf(p.stone, p.stone, true, "stone-stone");
+  d.wallLaw = lawOf(p.wall, p.stone, false, "stone-wall");
   if (p.backend != Backend::Cpu) {
     m.backend = makeCudaBackend(m.reason);
     if (m.backend) {
@@ -695,7 +693,7 @@ std::vector<ContactRecord> PolyhedraSystem::contacts() const {
       ContactRecord r;
       r.first = static_cast<std::int32_t>(m.user(i));
       r.second = static_cast<std::int32_t>(m.user(slot.partner));
-      r.overlap = slot.overlap;
+      r.overlap = d.pairOutput[index].overlap;
       for (int c = 0; c < 3; ++c) {
         r.normal[c] = slot.normal[c];
         r.point[c] = d.pairOutput[index].point[c];
@@ -711,7 +709,7 @@ std::vector<ContactRecord> PolyhedraSystem::contacts() const {
       r.first = static_cast<std::int32_t>(m.user(i));
       r.second = slot.partner;
       r.wall = true;
-      r.overlap = slot.overlap;
+      r.overlap = d.wallOutput[index].overlap;
       for (int c = 0; c < 3; ++c) {
         r.normal[c] = slot.normal[c];
         r.point[c] = d.wallOutput[index].point[c];

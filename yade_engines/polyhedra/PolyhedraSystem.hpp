@@ -30,13 +30,20 @@ struct ShapeProperties {
   std::array<double, 3> centroid{};
 };
 
-/// Material of stones and of walls. Hertz–Mindlin with the dilation curvature (Ullrich 2022 eqs. 2.20–2.24),
-/// damping from restitution and Coulomb friction: kernels/HertzMindlin.hpp.
+/// Material of stones and of walls. A pair mixes two materials with the one rule of the contact law
+/// (kernels/ContactLaw.hpp, docs/contact-models.md: mean damping ratio, smaller μ, ...), whose curvature is that of
+/// the dilation (Ullrich 2022 eqs. 2.20–2.24). Smooth surfaces give Hertz–Mindlin; a roughness selects the
+/// Pohrt–Popov laws (Tolomeo & McDowell 2022).
 struct Material {
-  double youngModulus = 1e10; ///< E [Pa]
-  double poissonRatio = 0.25; ///< ν [-]
-  double restitution = 0.2;   ///< normal coefficient of restitution e [-]
-  double friction = 0.6;      ///< Coulomb coefficient μ [-]
+  double youngModulus = 1e10;    ///< E [Pa]
+  double poissonRatio = 0.25;    ///< ν [-]
+  double restitution = 0.2;      ///< normal coefficient of restitution e [-]
+  double friction = 0.6;         ///< Coulomb coefficient μ [-]
+  double roughnessRms = 0.0;     ///< h [m]; > 0 selects the rough-surface (Pohrt–Popov) normal law
+  double fractalDimension = 0.0; ///< D_f [-], in [2, 3) when roughnessRms > 0
+  bool plasticUnloading = false; ///< elasto-plastic Pohrt–Popov (keeps F_max and δ_p per contact)
+  double frictionExponent = 0.0; ///< γ_μ ≤ 0 [-] of the stress-dependent friction between stones; 0: constant μ
+  double maxContactStress = 0.0; ///< σ_c,max [Pa] of the stress-dependent friction; 0: constant μ
 };
 
 enum class Backend { Automatic, Cpu, Cuda };

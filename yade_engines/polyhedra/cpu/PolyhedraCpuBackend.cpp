@@ -17,6 +17,13 @@ void HostData::allocate() {
   pairSlotsPrevious.assign(n * maxPairs, empty);
   wallSlots.assign(n * maxWalls, empty);
   wallSlotsPrevious.assign(n * maxWalls, empty);
+  const kernels::NormalHistory fresh{0.0, 0.0};
+  const bool pairHistory = kernels::normalHistorySlots(stoneLaw.config) > 0;
+  const bool wallHistory = kernels::normalHistorySlots(wallLaw.config) > 0;
+  pairNormalHistory.assign(pairHistory ? n * maxPairs : 0, fresh);
+  pairNormalHistoryPrevious.assign(pairHistory ? n * maxPairs : 0, fresh);
+  wallNormalHistory.assign(wallHistory ? n * maxWalls : 0, fresh);
+  wallNormalHistoryPrevious.assign(wallHistory ? n * maxWalls : 0, fresh);
   pairOutput.assign(n * maxPairs, ContactOutput{});
   wallOutput.assign(n * maxWalls, ContactOutput{});
   wallGeometry.assign(n * maxWalls, ContactGeometry{});
@@ -60,9 +67,11 @@ SystemView HostData::view() {
   v.maxPairs = maxPairs;
   v.maxWalls = maxWalls;
   v.pairSlots = pairSlots.data();
+  v.pairNormalHistory = pairNormalHistory.empty() ? nullptr : pairNormalHistory.data();
   v.pairOutput = pairOutput.data();
   v.pairCount = pairCount.data();
   v.wallSlots = wallSlots.data();
+  v.wallNormalHistory = wallNormalHistory.empty() ? nullptr : wallNormalHistory.data();
   v.wallOutput = wallOutput.data();
   v.wallGeometry = wallGeometry.data();
   v.wallCount = wallCount.data();
@@ -170,14 +179,19 @@ private:
     d.pairCount.swap(d.pairCountPrevious);
     d.wallSlots.swap(d.wallSlotsPrevious);
     d.wallCount.swap(d.wallCountPrevious);
+    d.pairNormalHistory.swap(d.pairNormalHistoryPrevious);
+    d.wallNormalHistory.swap(d.wallNormalHistoryPrevious);
     v = d.view();
     const ContactSlot* previousPairs = d.pairSlotsPrevious.data();
     const std::int32_t* previousPairCount = d.pairCountPrevious.data();
     const ContactSlot* previousWalls = d.wallSlotsPrevious.data();
     const std::int32_t* previousWallCount = d.wallCountPrevious.data();
+    const kernels::NormalHistory* previousPairNormal = d.pairNormalHistoryPrevious.data();
+    const kernels::NormalHistory* previousWallNormal = d.wallNormalHistoryPrevious.data();
 #pragma omp parallel for schedule(dynamic, 64) if (n >= parallelThreshold)
     for (int i = 0; i < n; ++i)
-      buildNeighbours(v, i, previousPairs, previousPairCount, previousWalls, previousWallCount);
+      buildNeighbours(v, i, previousPairs, previousPairCount, previousWalls, previousWallCount, previousPairNormal,
+                      previousWallNormal);
   }
 };
 

@@ -260,9 +260,13 @@ __global__ void __launch_bounds__(blockSize) cellBoundsKernel(SystemView s) {
 
 __global__ void __launch_bounds__(blockSize)
     neighbourKernel(SystemView s, const ContactSlot* previousPairs, const std::int32_t* previousPairCount,
-                    const ContactSlot* previousWalls, const std::int32_t* previousWallCount) {
+                    const ContactSlot* previousWalls, const std::int32_t* previousWallCount,
+                    const kernels::NormalHistory* previousPairNormal,
+                    const kernels::NormalHistory* previousWallNormal) {
   const int i = blockIdx.x * blockDim.x + threadIdx.x;
-  if (i < s.stoneCount) buildNeighbours(s, i, previousPairs, previousPairCount, previousWalls, previousWallCount);
+  if (i < s.stoneCount)
+    buildNeighbours(s, i, previousPairs, previousPairCount, previousWalls, previousWallCount, previousPairNormal,
+                    previousWallNormal);
 }
 
 constexpr auto startStepKernel = predictKernel<false>;
@@ -302,6 +306,8 @@ public:
       pairCount_[b].upload(b == current_ ? d.pairCount : d.pairCountPrevious, stream_);
       wallSlots_[b].upload(b == current_ ? d.wallSlots : d.wallSlotsPrevious, stream_);
       wallCount_[b].upload(b == current_ ? d.wallCount : d.wallCountPrevious, stream_);
+      pairNormal_[b].upload(b == current_ ? d.pairNormalHistory : d.pairNormalHistoryPrevious, stream_);
+      wallNormal_[b].upload(b == current_ ? d.wallNormalHistory : d.wallNormalHistoryPrevious, stream_);
     }
     pairOutput_.upload(d.pairOutput, stream_);
     wallOutput_.upload(d.wallOutput, stream_);
@@ -371,6 +377,10 @@ public:
     pairCount_[1 - current_].download(d.pairCountPrevious, stream_);
     wallSlots_[1 - current_].download(d.wallSlotsPrevious, stream_);
     wallCount_[1 - current_].download(d.wallCountPrevious, stream_);
+    pairNormal_[current_].download(d.pairNormalHistory, stream_);
+    wallNormal_[current_].download(d.wallNormalHistory, stream_);
+    pairNormal_[1 - current_].download(d.pairNormalHistoryPrevious, stream_);
+    wallNormal_[1 - current_].download(d.wallNormalHistoryPrevious, stream_);
     pairOutput_.download(d.pairOutput, stream_);
     wallOutput_.download(d.wallOutput, stream_);
     check(cudaStreamSynchronize(stream_), "download");
@@ -454,9 +464,11 @@ private:
     v.trianglePointSum = trianglePoint_.get();
     v.triangleWeightSum = triangleWeight_.get();
     v.pairSlots = pairSlots_[current_].get();
+    v.pairNormalHistory = pairNormal_[current_].get(); // null when the law keeps no normal history
     v.pairOutput = pairOutput_.get();
     v.pairCount = pairCount_[current_].get();
     v.wallSlots = wallSlots_[current_].get();
+    v.wallNormalHistory = wallNormal_[current_].get();
     v.wallOutput = wallOutput_.get();
     v.wallGeometry = wallGeometry_.get();
     v.wallCount = wallCount_[current_].get();
@@ -494,7 +506,7 @@ private:
     v = view(d);
     neighbourKernel<<<blocks(d.stoneCount), blockSize, 0, stream_>>>(
         v, pairSlots_[previous].get(), pairCount_[previous].get(), wallSlots_[previous].get(),
-        wallCount_[previous].get());
+        wallCount_[previous].get(), pairNormal_[previous].get(), wallNormal_[previous].get());
     check(cudaGetLastError(), "neighbour kernel");
     enqueueCandidateLists(d);
   }
@@ -595,6 +607,7 @@ private:
       cellEnd_;
   DeviceArray<ShapeData> shapes_;
   DeviceArray<ContactSlot> pairSlots_[2], wallSlots_[2];
+  DeviceArray<kernels::NormalHistory> pairNormal_[2], wallNormal_[2]; // empty unless the law keeps a normal history
   DeviceArray<ContactOutput> pairOutput_, wallOutput_;
   DeviceArray<std::uint32_t> cellKey_, rawKey_;
   DeviceArray<unsigned long long> counters_;

@@ -1,4 +1,5 @@
-// YADE ballast contact classes: material validation, Ip2 parameter mixing, and the gather → kernels → scatter Law2.
+// YADE ballast contact classes: material validation, Ip2 through the contact law's mixing, and the gather → kernels →
+// scatter Law2.
 #include "BallastContact.hpp"
 
 #include <core/Scene.hpp>
@@ -38,103 +39,103 @@ double contactMass(const Body& body, const Scene* scene) {
 }
 } // namespace
 
-// Every attribute is checked here, on the Python side of the simulation, so that the parallel interaction
-// loop never meets an invalid material (an exception there cannot be reported cleanly).
-void BallastMat::postLoad(BallastMat&) {
-  std::ostringstream problem;
-  if (!(restitution >= 0 && restitution <= 1))
-    problem << "restitution must be in [0, 1], got " << restitution;
-  else if (!(rollingFriction >= 0))
-    problem << "rollingFriction (η_r [-]) must be >= 0, got " << rollingFriction;
-  else if (!(roughnessRms >= 0))
-    problem << "roughnessRms [m] must be >= 0 (0 = smooth Hertz), got " << roughnessRms;
-  else if (roughnessRms > 0 && !(roughnessFractalDim >= 2 && roughnessFractalDim < 3))
-    problem << "roughnessFractalDim must be in [2, 3) when roughnessRms > 0, got " << roughnessFractalDim;
-  else if (plasticUnloading && !(roughnessRms > 0))
-    problem << "plasticUnloading needs a rough surface: set roughnessRms [m] > 0 and roughnessFractalDim";
-  else if (!(frictionExponent <= 0))
-    problem << "frictionExponent must be <= 0 (friction falls with stress), got " << frictionExponent;
-  else if (!(maxContactStress >= 0))
-    problem << "maxContactStress [Pa] must be >= 0 (0 disables it), got " << maxContactStress;
-  else if (!(young > 0) || !(poisson > -1 && poisson < 0.5))
-    problem << "young [Pa] must be > 0 and poisson in (-1, 0.5), got young=" << young << ", poisson=" << poisson;
-  else
-    return;
-  throw std::invalid_argument("BallastMat '" + label + "': " + problem.str());
+railcosim::kernels::ContactMaterial contactMaterialOf(const Material& material, const std::string& owner) {
+  if (const auto* ballast = dynamic_cast<const BallastMat*>(&material)) {
+    return kernels::ContactMaterial{double(ballast->young),
+                                    double(ballast->poisson),
+                                    double(ballast->restitution),
+                                    double(math::tan(ballast->frictionAngle)),
+                                    double(ballast->roughnessRms),
+                                    double(ballast->roughnessFractalDim),
+                                    ballast->plasticUnloading,
+                                    double(ballast->frictionExponent),
+                                    double(ballast->maxContactStress),
+                                    double(ballast->rollingFriction)};
+  }
+  if (const auto* frict = dynamic_cast<const FrictMat*>(&material)) {
+    return kernels::ContactMaterial{double(frict->young), double(frict->poisson), 1.0,
+                                    double(math::tan(frict->frictionAngle))};
+  }
+  throw std::invalid_argument(owner + " needs a FrictMat or BallastMat material (moduli and friction), got a " +
+                              material.getClassName());
 }
 
-kernels::BallastContactParams BallastPhys::kernelParams() {
-  kernels::BallastContactParams p{};
-  p.normalModel = static_cast<kernels::NormalModel>(normalModel);
+// Every attribute is checked here, on the Python side of the simulation, so that the parallel interaction
+// loop never meets an invalid material (an exception there cannot be reported cleanly). The contact law's own
+// check of a material is the one used.
+void BallastMat::postLoad(BallastMat&) {
+  kernels::validate(contactMaterialOf(*this, "BallastMat"), "BallastMat '" + label + "'");
+}
+
+kernels::ContactLaw BallastPhys::contactLaw() {
+  kernels::ContactLaw law{};
+  law.config = kernels::ContactLawConfig{normalModel, dampingModel, tangentialModel, frictionModel, rollingModel};
+  kernels::ContactParams& p = law.params;
   p.hertzMindlin = kernels::HertzMindlinParams{double(effectiveYoungModulus), double(effectiveShearModulus),
                                                double(effectiveRadius), double(effectiveMass), double(dampingRatio)};
-  if (normalModel != int(kernels::NormalModel::Hertz) && !pohrtPopovReady) {
-    pohrtPopovCache = kernels::makePohrtPopovParams(double(effectiveYoungModulus), double(effectiveRadius),
-                                                    double(fractalDimension), double(roughnessRms));
-    pohrtPopovReady = true;
-  }
-  p.pohrtPopov = pohrtPopovCache;
   p.tangentialStiffnessRatio = double(tangentialStiffnessRatio);
   p.friction = kernels::StressDependentFrictionParams{double(tangensOfFrictionAngle), double(frictionExponent),
                                                       double(maxContactStress)};
-  p.stressDependentFriction = stressDependentFriction;
-  return p;
+  p.rollingFrictionCoefficient = double(rollingFriction);
+  if (!normalModelPrepared) {
+    p.pohrtPopov.fractalDimension = double(fractalDimension);
+    p.pohrtPopov.roughnessRms = double(roughnessRms);
+    kernels::prepareNormalModel(law);
+    pohrtPopovCache = p.pohrtPopov;
+    normalModelPrepared = true;
+  }
+  p.pohrtPopov = pohrtPopovCache;
+  return law;
+}
+
+void BallastPhys::setContactLaw(const kernels::ContactLaw& law) {
+  const kernels::ContactParams& p = law.params;
+  normalModel = law.config.normal;
+  dampingModel = law.config.damping;
+  tangentialModel = law.config.tangential;
+  frictionModel = law.config.friction;
+  rollingModel = law.config.rolling;
+  effectiveYoungModulus = p.hertzMindlin.effectiveYoungModulus;
+  effectiveShearModulus = p.hertzMindlin.effectiveShearModulus;
+  effectiveRadius = p.hertzMindlin.effectiveRadius;
+  effectiveMass = p.hertzMindlin.effectiveMass;
+  dampingRatio = p.hertzMindlin.dampingRatio;
+  fractalDimension = p.pohrtPopov.fractalDimension;
+  roughnessRms = p.pohrtPopov.roughnessRms;
+  tangentialStiffnessRatio = p.tangentialStiffnessRatio;
+  tangensOfFrictionAngle = p.friction.baseFrictionCoefficient;
+  frictionCoeff = tangensOfFrictionAngle;
+  frictionExponent = p.friction.frictionExponent;
+  maxContactStress = p.friction.maxContactStress;
+  rollingFriction = p.rollingFrictionCoefficient;
+  rollingArm = kernels::rollingArm(law);
+  pohrtPopovCache = p.pohrtPopov;
+  normalModelPrepared = true;
+}
+
+std::string BallastPhys::contactLawKeywords() const {
+  return kernels::describe(
+      kernels::ContactLawConfig{normalModel, dampingModel, tangentialModel, frictionModel, rollingModel});
 }
 
 void Ip2_BallastMat_BallastMat_BallastPhys::go(const shared_ptr<Material>& material1,
                                                const shared_ptr<Material>& material2,
                                                const shared_ptr<Interaction>& interaction) {
   if (interaction->phys) return;
-  const auto& mat1 = YADE_PTR_CAST<BallastMat>(material1);
-  const auto& mat2 = YADE_PTR_CAST<BallastMat>(material2);
   const Body& body1 = *Body::byId(interaction->getId1(), scene);
   const Body& body2 = *Body::byId(interaction->getId2(), scene);
-
+  // The contact law's mixing rule (Irazábal eq. 3.27 and docs/contact-models.md): stress-dependent friction between
+  // members of different clusters only (§6.3.4); bounded rolling friction wherever a body is a sphere, which
+  // BoundedRollingFrictionEngine then applies to the standalone dynamic spheres.
+  const kernels::ContactPairOptions options{
+      body1.isClumpMember() && body2.isClumpMember() && body1.clumpId != body2.clumpId, true};
+  kernels::ContactLaw law = kernels::mixContactLaw(contactMaterialOf(*material1, "Ip2 body 1"),
+                                                   contactMaterialOf(*material2, "Ip2 body 2"), options);
+  // Walls: infinite radius and mass.
+  kernels::setContactGeometry(law, contactRadius(body1), contactRadius(body2), contactMass(body1, scene),
+                              contactMass(body2, scene));
   auto phys = shared_ptr<BallastPhys>(new BallastPhys());
-  // Equivalent properties, Irazábal eq. 3.27 (walls: infinite radius and mass).
-  const double radius1 = contactRadius(body1);
-  const double radius2 = contactRadius(body2);
-  const double shear1 = kernels::shearModulus(mat1->young, mat1->poisson);
-  const double shear2 = kernels::shearModulus(mat2->young, mat2->poisson);
-  phys->effectiveYoungModulus = kernels::effectiveYoungModulus(mat1->young, mat1->poisson, mat2->young, mat2->poisson);
-  phys->effectiveShearModulus = kernels::effectiveShearModulus(shear1, mat1->poisson, shear2, mat2->poisson);
-  phys->effectiveRadius = kernels::effectiveRadius(radius1, radius2);
-  phys->effectiveMass = kernels::effectiveMass(contactMass(body1, scene), contactMass(body2, scene));
-  // Two non-dynamic bodies (e.g. a prescribed-motion test) have no dynamics to damp: m* = 0 → no dashpot.
-  if (!std::isfinite(double(phys->effectiveMass))) phys->effectiveMass = 0;
-  // γ_eq = (γ1 + γ2)/2 (eq. 3.27e), each from its material's restitution.
-  phys->dampingRatio = 0.5 * (kernels::dampingRatioFromRestitution(mat1->restitution) +
-                              kernels::dampingRatioFromRestitution(mat2->restitution));
-  phys->tangensOfFrictionAngle = math::tan(math::min(mat1->frictionAngle, mat2->frictionAngle));
-  phys->frictionCoeff = phys->tangensOfFrictionAngle;
-
-  // Normal law: rough if either surface is rough (means over the rough ones), plastic if either asks.
-  const int roughCount = int(mat1->roughnessRms > 0) + int(mat2->roughnessRms > 0);
-  if (roughCount > 0) {
-    phys->roughnessRms = (mat1->roughnessRms + mat2->roughnessRms) / roughCount;
-    phys->fractalDimension = ((mat1->roughnessRms > 0 ? mat1->roughnessFractalDim : 0) +
-                              (mat2->roughnessRms > 0 ? mat2->roughnessFractalDim : 0)) /
-                             roughCount;
-    const bool plastic =
-        (mat1->plasticUnloading && mat1->roughnessRms > 0) || (mat2->plasticUnloading && mat2->roughnessRms > 0);
-    phys->normalModel =
-        int(plastic ? kernels::NormalModel::PohrtPopovElastoPlastic : kernels::NormalModel::PohrtPopovElastic);
-  } else {
-    phys->normalModel = int(kernels::NormalModel::Hertz);
-  }
-  // k_s/k_n = 4G*/E*, which is Tolomeo & McDowell eq. 7 for like materials.
-  phys->tangentialStiffnessRatio = 4.0 * phys->effectiveShearModulus / phys->effectiveYoungModulus;
-
-  // Stress-dependent friction between members of different clusters only (Irazábal §6.3.4).
-  phys->frictionExponent = 0.5 * (mat1->frictionExponent + mat2->frictionExponent);
-  phys->maxContactStress = 0.5 * (mat1->maxContactStress + mat2->maxContactStress);
-  phys->stressDependentFriction = body1.isClumpMember() && body2.isClumpMember() && body1.clumpId != body2.clumpId &&
-                                  phys->frictionExponent < 0 && phys->maxContactStress > 0;
-
-  // Rolling arm e_c = η_r R1R2/(R1+R2) (eqs. 5.2–5.3), η_r the larger of the two materials.
-  phys->rollingArm = kernels::rollingResistanceArm(
-      kernels::BoundedRollingFrictionParams{double(math::max(mat1->rollingFriction, mat2->rollingFriction))}, radius1,
-      radius2);
+  phys->setContactLaw(law);
   interaction->phys = phys;
 }
 
@@ -147,6 +148,7 @@ bool Law2_ScGeom_BallastPhys_Ballast::go(shared_ptr<IGeom>& geometry, shared_ptr
   if (geom->penetrationDepth < 0) {
     if (!neverErase) return false;
     phys->normalForce = phys->shearForce = Vector3r::Zero();
+    phys->rollingResistance = 0;
     return true;
   }
   // Gather: kinematics of body 2 relative to body 1 at the contact point.
@@ -163,12 +165,12 @@ bool Law2_ScGeom_BallastPhys_Ballast::go(shared_ptr<IGeom>& geometry, shared_ptr
   const railcosim::kernels::ContactKinematics kinematics{
       double(geom->penetrationDepth), double(-normal.dot(relativeVelocity)), toKernel(normal),
       toKernel(geom->shearIncrement()), toKernel(relativeVelocity - normal.dot(relativeVelocity) * normal)};
-  const railcosim::kernels::BallastContactHistory history{toKernel(phys->elasticShearForce),
-                                                          double(phys->previousShearStiffness),
-                                                          double(phys->maxNormalForce), double(phys->plasticOverlap)};
+  const railcosim::kernels::ContactHistory history{
+      toKernel(phys->elasticShearForce), double(phys->previousShearStiffness),
+      railcosim::kernels::NormalHistory{double(phys->maxNormalForce), double(phys->plasticOverlap)}};
   // Kernels.
-  const railcosim::kernels::BallastContactResult result =
-      railcosim::kernels::ballastContactForces(phys->kernelParams(), history, kinematics);
+  const railcosim::kernels::ContactLawResult result =
+      railcosim::kernels::contactLawForces(phys->contactLaw(), history, kinematics);
 
   // Scatter: forces on body 2 (+) and body 1 (−), stiffnesses for time steppers, history.
   phys->normalForce = result.normalForce * normal;
@@ -177,10 +179,11 @@ bool Law2_ScGeom_BallastPhys_Ballast::go(shared_ptr<IGeom>& geometry, shared_ptr
   phys->ks = result.tangentialStiffness;
   phys->frictionCoeff = result.frictionCoefficient;
   phys->isSliding = result.sliding;
+  phys->rollingResistance = result.rollingResistanceMoment;
   phys->elasticShearForce = fromKernel(result.history.elasticShearForce);
   phys->previousShearStiffness = result.history.previousTangentialStiffness;
-  phys->maxNormalForce = result.history.maxNormalForce;
-  phys->plasticOverlap = result.history.plasticOverlap;
+  phys->maxNormalForce = result.history.normal.maxNormalForce;
+  phys->plasticOverlap = result.history.normal.plasticOverlap;
   applyForceAtContactPoint(-phys->normalForce - phys->shearForce, geom->contactPoint, id1, state1->se3.position, id2,
                            state2->se3.position + shift2);
   return true;

@@ -6,13 +6,15 @@
 #include <pkg/dem/FrictPhys.hpp>
 #include <pkg/dem/ScGeom.hpp>
 
-#include "kernels/BallastContact.hpp"
-#include "kernels/BoundedRollingFriction.hpp"
+#include "kernels/ContactLaw.hpp"
+
+#include <string>
 
 namespace yade {
 
-/*! Ballast grain material: Hertz–Mindlin (Thornton) contact with optional rough-surface (Pohrt–Popov) normal
-law, stress-dependent friction between clusters and bounded rolling friction. Equations: docs/contact-models.md. */
+/*! Ballast grain material: the contact law of kernels/ContactLaw.hpp (Hertz–Mindlin, or the rough-surface
+Pohrt–Popov normal laws, stress-dependent friction between clusters, bounded rolling friction) with the sub-models
+its attributes select. Equations: docs/contact-models.md. */
 class BallastMat : public FrictMat {
 public:
   virtual ~BallastMat() = default;
@@ -37,22 +39,30 @@ REGISTER_SERIALIZABLE(BallastMat);
 /*! Per-contact parameters (set by the Ip2) and history (kept by the Law2) of the ballast contact law. */
 class BallastPhys : public FrictPhys {
   // Derived Pohrt–Popov constants (A0, F(A0), ...) are rebuilt from the serialized inputs after loading.
-  bool pohrtPopovReady = false;
+  bool normalModelPrepared = false;
   railcosim::kernels::PohrtPopovParams pohrtPopovCache{};
 
 public:
   virtual ~BallastPhys() = default;
-  //! Kernel parameter struct assembled from the attributes (builds the Pohrt–Popov cache on first use).
-  railcosim::kernels::BallastContactParams kernelParams();
+  //! The contact law assembled from the attributes (prepares the normal model's constants on first use).
+  railcosim::kernels::ContactLaw contactLaw();
+  //! Stores a law made by the Ip2 in the attributes.
+  void setContactLaw(const railcosim::kernels::ContactLaw& law);
+  //! The selected sub-models' keywords.
+  std::string contactLawKeywords() const;
   // clang-format off
-	YADE_CLASS_BASE_DOC_ATTRS_CTOR(BallastPhys,FrictPhys,"Interaction physics of :yref:`Law2_ScGeom_BallastPhys_Ballast` (railcosim). Inherits :yref:`normalForce<NormShearPhys.normalForce>` and :yref:`shearForce<NormShearPhys.shearForce>` [N] (forces on body 2), :yref:`kn<NormPhys.kn>` and :yref:`ks<NormShearPhys.ks>` [N/m] (current tangent stiffnesses, used by time steppers) and :yref:`tangensOfFrictionAngle<FrictPhys.tangensOfFrictionAngle>` (μ0 [-]).",
+	YADE_CLASS_BASE_DOC_ATTRS_CTOR_PY(BallastPhys,FrictPhys,"Interaction physics of :yref:`Law2_ScGeom_BallastPhys_Ballast` (railcosim). Inherits :yref:`normalForce<NormShearPhys.normalForce>` and :yref:`shearForce<NormShearPhys.shearForce>` [N] (forces on body 2), :yref:`kn<NormPhys.kn>` and :yref:`ks<NormShearPhys.ks>` [N/m] (current tangent stiffnesses, used by time steppers) and :yref:`tangensOfFrictionAngle<FrictPhys.tangensOfFrictionAngle>` (μ0 [-]). The sub-models are rows of the contact-law registry (docs/contact-models.md); :yref:`contactLaw<BallastPhys.contactLaw>` names them.",
 		((Real,frictionCoeff,0.0,,"Friction coefficient μ [-] used in the last step (μ0, or reduced by stress-dependent friction)."))
 		((Real,maxNormalForce,0.0,,"Largest normal force F_max [N] reached (elasto-plastic Pohrt–Popov history)."))
 		((Real,plasticOverlap,0.0,,"Plastic (permanent) overlap δ_p [m] (elasto-plastic Pohrt–Popov history)."))
 		((Vector3r,elasticShearForce,Vector3r::Zero(),,"Elastic part of the tangential force [N] (history of the incremental tangential spring)."))
 		((Real,previousShearStiffness,0.0,,"Tangential stiffness of the previous step [N/m] (history for the unloading correction)."))
 		((bool,isSliding,false,,"Whether the Coulomb limit was reached in the last step."))
-		((int,normalModel,0,,"Normal law: 0 Hertz, 1 elastic Pohrt–Popov, 2 elasto-plastic Pohrt–Popov."))
+		((int,normalModel,0,,"Normal sub-model, index in the registry's normal rows: 0 ``hertz``, 1 ``pohrt_popov``, 2 ``pohrt_popov_plastic``."))
+		((int,dampingModel,0,,"Damping sub-model, index in the registry's damping rows: 0 ``viscous_restitution``."))
+		((int,tangentialModel,0,,"Tangential sub-model, index in the registry's tangential rows: 0 ``mindlin_incremental``, 1 ``stiffness_ratio``."))
+		((int,frictionModel,0,,"Friction-coefficient sub-model, index in the registry's friction rows: 0 ``coulomb``, 1 ``stress_dependent`` (members of different clumps with frictionExponent < 0 and maxContactStress > 0)."))
+		((int,rollingModel,0,,"Rolling sub-model, index in the registry's rolling rows: 0 ``none``, 1 ``brof``."))
 		((Real,effectiveYoungModulus,0.0,,"E* [Pa] of the pair."))
 		((Real,effectiveShearModulus,0.0,,"G* [Pa] of the pair."))
 		((Real,effectiveRadius,0.0,,"R* [m] of the pair (a wall counts as infinite radius)."))
@@ -60,18 +70,26 @@ public:
 		((Real,dampingRatio,0.0,,"Viscous damping ratio γ [-] (fraction of critical)."))
 		((Real,fractalDimension,0.0,,"D_f [-] of the pair (Pohrt–Popov laws)."))
 		((Real,roughnessRms,0.0,,"h [m] of the pair (Pohrt–Popov laws)."))
-		((Real,tangentialStiffnessRatio,0.0,,"k_s/k_n [-] for the Pohrt–Popov laws (4G*/E*, = 2(1−ν)/(2−ν) for like materials)."))
-		((bool,stressDependentFriction,false,,"Whether stress-dependent friction applies (members of different clumps with frictionExponent < 0 and maxContactStress > 0)."))
+		((Real,tangentialStiffnessRatio,0.0,,"k_s/k_n [-] for the ``stiffness_ratio`` tangential model (4G*/E*, = 2(1−ν)/(2−ν) for like materials)."))
 		((Real,frictionExponent,0.0,,"Exponent γ [-] of the stress-dependent friction."))
 		((Real,maxContactStress,0.0,,"σ_c,max [Pa] of the stress-dependent friction."))
-		((Real,rollingArm,0.0,,"Rolling-resistance arm e_c = η_r R1R2/(R1+R2) [m] (used by :yref:`BoundedRollingFrictionEngine`)."))
+		((Real,rollingFriction,0.0,,"Bounded rolling friction coefficient η_r [-] of the pair (the larger of the two materials)."))
+		((Real,rollingArm,0.0,,"Rolling-resistance arm e_c = η_r R1R2/(R1+R2) [m] (0 unless the ``brof`` rolling model is selected)."))
+		((Real,rollingResistance,0.0,,"This contact's share e_c |F_n| [N m] of each body's rolling-resistance budget in the last step (summed by :yref:`BoundedRollingFrictionEngine`)."))
 		,
 		createIndex();
+		,
+		.add_property("contactLaw",&BallastPhys::contactLawKeywords,"Keywords of the selected sub-models: normal + damping + tangential + friction + rolling (read-only).")
 	);
   // clang-format on
   REGISTER_CLASS_INDEX(BallastPhys, FrictPhys);
 };
 REGISTER_SERIALIZABLE(BallastPhys);
+
+//! The contact properties of a body's material for the contact law: every attribute of a BallastMat; for a plain
+//! FrictMat its moduli and friction, with restitution 1 (no dashpot) unless the caller sets another. Throws
+//! std::invalid_argument naming `owner` for any other material.
+railcosim::kernels::ContactMaterial contactMaterialOf(const Material& material, const std::string& owner);
 
 class Ip2_BallastMat_BallastMat_BallastPhys : public IPhysFunctor {
 public:
@@ -79,7 +97,7 @@ public:
           const shared_ptr<Interaction>& interaction) override;
   FUNCTOR2D(BallastMat, BallastMat);
   // clang-format off
-	YADE_CLASS_BASE_DOC(Ip2_BallastMat_BallastMat_BallastPhys,IPhysFunctor,"Creates :yref:`BallastPhys` from two :yref:`BallastMat` (railcosim): equivalent properties (Irazábal eq. 3.27; spheres use their radius, other shapes count as flat walls; clump members use their clump's mass), damping ratio from restitution, the normal law from the roughness attributes, μ0 = tan(min friction angle), stress-dependent friction for members of different clumps, and the rolling arm.");
+	YADE_CLASS_BASE_DOC(Ip2_BallastMat_BallastMat_BallastPhys,IPhysFunctor,"Creates :yref:`BallastPhys` from two :yref:`BallastMat` (railcosim) with the contact law's one mixing rule (docs/contact-models.md): equivalent properties (Irazábal eq. 3.27; spheres use their radius, other shapes count as flat walls; clump members use their clump's mass), damping ratio from restitution, the normal sub-model from the roughness attributes, μ0 = tan(min friction angle), stress-dependent friction for members of different clumps, and bounded rolling friction.");
   // clang-format on
 };
 REGISTER_SERIALIZABLE(Ip2_BallastMat_BallastMat_BallastPhys);
@@ -89,7 +107,7 @@ public:
   bool go(shared_ptr<IGeom>& geometry, shared_ptr<IPhys>& physics, Interaction* interaction) override;
   FUNCTOR2D(ScGeom, BallastPhys);
   // clang-format off
-	YADE_CLASS_BASE_DOC_ATTRS(Law2_ScGeom_BallastPhys_Ballast,LawFunctor,"Ballast contact law (railcosim): gathers the contact kinematics from :yref:`ScGeom`, evaluates the header-only kernels (normal law + viscous damping + incremental tangential force with unloading correction + Coulomb cap with optional stress-dependent μ; docs/contact-models.md) and applies the forces. No attractive normal force.",
+	YADE_CLASS_BASE_DOC_ATTRS(Law2_ScGeom_BallastPhys_Ballast,LawFunctor,"Ballast contact law (railcosim): gathers the contact kinematics from :yref:`ScGeom`, evaluates the composed contact law of the header-only kernels with the sub-models its :yref:`BallastPhys` selects (normal law + viscous damping + incremental tangential force with unloading correction + Coulomb cap with constant or stress-dependent μ + the rolling-resistance budget; docs/contact-models.md) and applies the forces. No attractive normal force.",
 		((bool,neverErase,false,,"Keep interactions whose overlap became negative (forces set to zero) instead of erasing them, e.g. when another law still needs them."))
 	);
   // clang-format on

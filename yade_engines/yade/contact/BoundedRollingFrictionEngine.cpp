@@ -34,8 +34,9 @@ void BoundedRollingFrictionEngine::action() {
   for (const auto& interaction : *scene->interactions) {
     if (!interaction->isReal()) continue;
     const auto* phys = dynamic_cast<const BallastPhys*>(interaction->phys.get());
-    if (!phys || phys->rollingArm <= 0) continue;
-    const double moment = kernels::rollingResistanceMoment(phys->rollingArm, phys->normalForce.norm());
+    if (!phys || phys->rollingResistance <= 0) continue;
+    // This contact's share e_c |F_n| of both bodies' budgets, as the contact law evaluated it this step.
+    const double moment = phys->rollingResistance;
     budget[interaction->getId1()] += moment;
     budget[interaction->getId2()] += moment;
   }

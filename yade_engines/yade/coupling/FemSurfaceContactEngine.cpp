@@ -1,15 +1,17 @@
-// FemSurfaceContactEngine: sphere-surface contacts of the FE interface mesh with Hertz-Mindlin forces.
+// FemSurfaceContactEngine: sphere-surface contacts of the FE interface mesh, forces from the one contact law.
 #include "FemSurfaceContactEngine.hpp"
 
-#include "kernels/HertzMindlin.hpp"
+#include "../contact/BallastContact.hpp"
+#include "kernels/ContactLaw.hpp"
 #include "kernels/SurfaceContactMesh.hpp"
 
 #include <core/Scene.hpp>
 #include <core/State.hpp>
 #include <pkg/common/Sphere.hpp>
-#include <pkg/dem/FrictPhys.hpp>
 
 #include <cmath>
+#include <limits>
+#include <map>
 #include <stdexcept>
 
 namespace yade {
@@ -18,27 +20,35 @@ YADE_PLUGIN((FemSurfaceContactEngine));
 
 struct FemSurfaceContactEngine::ContactHistory {
   railcosim::kernels::SurfaceContact contact; // where the contact was at the previous step
-  railcosim::kernels::Vec3 elasticForce;      // tangential spring force carried to the next step [N]
-  double overlap;                             // overlap at the previous step [m] (unloading correction)
+  railcosim::kernels::ContactHistory law;     // the contact law's history (tangential spring, normal model's)
 };
 
 namespace {
 namespace k = railcosim::kernels;
 k::Vec3 vec(const Vector3r& v) { return {v[0], v[1], v[2]}; }
 Vector3r vec(const k::Vec3& v) { return Vector3r(v.x, v.y, v.z); }
-const FrictMat& frictionMaterial(const shared_ptr<Material>& material, const std::string& owner) {
-  const auto* frict = dynamic_cast<const FrictMat*>(material.get());
-  if (!frict)
-    throw std::invalid_argument("FemCouplingEngine (contactModel='meshContacts'): " + owner +
-                                " needs a FrictMat (or derived) material for its moduli and friction.");
-  return *frict;
+const double infinity = std::numeric_limits<double>::infinity();
+
+// The contact material of a body for a particle-surface contact: the restitution of the pair is the engine's.
+k::ContactMaterial surfaceContactMaterial(const shared_ptr<Material>& material, const std::string& owner,
+                                          double restitution) {
+  if (!material)
+    throw std::invalid_argument("FemCouplingEngine (contactModel='meshContacts'): " + owner + " has no material.");
+  try {
+    k::ContactMaterial m = contactMaterialOf(*material, owner);
+    m.restitution = restitution;
+    return m;
+  } catch (const std::invalid_argument& e) {
+    throw std::invalid_argument(std::string("FemCouplingEngine (contactModel='meshContacts'): ") + e.what());
+  }
 }
 } // namespace
 
 void FemSurfaceContactEngine::checkSettings() const {
-  frictionMaterial(material, "the surface 'material'");
   if (!(restitution >= 0 && restitution <= 1))
     throw std::invalid_argument("FemCouplingEngine: restitution must be in [0, 1], got " + std::to_string(restitution));
+  k::validate(surfaceContactMaterial(material, "the surface 'material'", restitution),
+              "FemCouplingEngine: the surface 'material'");
 }
 
 void FemSurfaceContactEngine::attach(const std::vector<int32_t>& triangles, const std::vector<double>& coordinates) {
@@ -69,9 +79,11 @@ void FemSurfaceContactEngine::action() {
   nodal.assign(3 * nodes, 0.0);
   const k::SurfaceMeshView view = topology->view(*positions, *velocities);
   grid->rebuild(view);
-  const FrictMat& surface = frictionMaterial(material, "the surface 'material'");
-  const double surfaceShear = k::shearModulus(surface.young, surface.poisson);
-  const double dampingRatio = k::dampingRatioFromRestitution(restitution);
+  const k::ContactMaterial surface = surfaceContactMaterial(material, "the surface 'material'", restitution);
+  // One law per particle material (mixed with the surface's: docs/contact-models.md); R* and m* per sphere. Spheres
+  // on the surface get no rolling resistance here: BoundedRollingFrictionEngine sums the budgets of BallastPhys
+  // interactions only.
+  std::map<const Material*, k::ContactLaw> lawOf;
   const double dt = scene->dt;
   auto next = std::make_shared<History>();
   std::vector<int32_t> candidates;
@@ -88,15 +100,16 @@ void FemSurfaceContactEngine::action() {
     const std::vector<k::SurfaceContact> contacts = k::findSurfaceContacts(view, centre, radius, candidates);
     if (contacts.empty()) continue;
 
-    const FrictMat& particle = frictionMaterial(b->material, "particle #" + std::to_string(b->id));
-    // A clump member resists with the whole clump's inertia.
+    auto known = lawOf.find(b->material.get());
+    if (known == lawOf.end()) {
+      const k::ContactMaterial particle =
+          surfaceContactMaterial(b->material, "particle #" + std::to_string(b->id), restitution);
+      known = lawOf.emplace(b->material.get(), k::mixContactLaw(particle, surface)).first;
+    }
+    k::ContactLaw law = known->second;
+    // A clump member resists with the whole clump's inertia; the surface is flat (R = ∞) and moves as prescribed.
     const double mass = b->isClumpMember() ? (*scene->bodies)[b->clumpId]->state->mass : state.mass;
-    const k::HertzMindlinParams params{
-        k::effectiveYoungModulus(particle.young, particle.poisson, surface.young, surface.poisson),
-        k::effectiveShearModulus(k::shearModulus(particle.young, particle.poisson), particle.poisson, surfaceShear,
-                                 surface.poisson),
-        radius, mass, dampingRatio};
-    const double friction = std::min(std::tan(particle.frictionAngle), std::tan(surface.frictionAngle));
+    k::setContactGeometry(law, radius, infinity, mass, infinity);
     const auto found = contactHistory->find(b->id);
     std::vector<k::SurfaceContact> previousContacts;
     if (found != contactHistory->end())
@@ -106,22 +119,25 @@ void FemSurfaceContactEngine::action() {
       const k::Vec3 branch = c.point - centre;
       const k::Vec3 pointVel = vec(state.vel) + cross(vec(state.angVel), branch);
       const k::Vec3 relative = pointVel - c.velocity; // particle relative to the surface at the contact
-      const double overlapRate = -dot(relative, c.normal);
-      const double normalForce = k::hertzNormalForce(params, c.overlap, overlapRate);
       const int32_t continued =
           previousContacts.empty()
               ? -1
               : k::findContinuingContact(c, previousContacts.data(), static_cast<int32_t>(previousContacts.size()),
-                                         k::hertzContactRadius(params, c.overlap));
-      const k::Vec3 elastic = continued >= 0 ? found->second[continued].elasticForce : k::Vec3{0, 0, 0};
-      const double lastOverlap = continued >= 0 ? found->second[continued].overlap : c.overlap;
-      const k::TangentialForceResult tangential = k::mindlinTangentialForce(
-          params, elastic, c.normal, c.overlap, lastOverlap, relative * dt, relative, friction, normalForce);
-      const k::Vec3 force = normalForce * c.normal + tangential.force; // on the particle
+                                         k::hertzContactRadius(law.params.hertzMindlin, c.overlap));
+      const k::ContactHistory history = continued >= 0
+                                            ? found->second[continued].law
+                                            : k::ContactHistory{k::Vec3{0, 0, 0}, 0.0, k::NormalHistory{0.0, 0.0}};
+      // Body 1 the surface, body 2 the particle: n from the surface to the centre, motion of the particle.
+      const k::Vec3 tangentialVelocity = k::tangentialPart(relative, c.normal);
+      const k::ContactLawResult r =
+          k::contactLawForces(law, history,
+                              k::ContactKinematics{c.overlap, -dot(relative, c.normal), c.normal,
+                                                   tangentialVelocity * dt, tangentialVelocity});
+      const k::Vec3 force = r.normalForce * c.normal + r.shearForce; // on the particle
       scene->forces.addForce(b->id, vec(force));
       scene->forces.addTorque(b->id, vec(cross(branch, force)));
       k::lumpContactForce(c, -1.0 * force, nodal.data());
-      kept.push_back({c, tangential.elasticForce, c.overlap});
+      kept.push_back({c, r.history});
       ++count;
     }
   }

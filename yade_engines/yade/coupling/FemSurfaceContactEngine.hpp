@@ -1,4 +1,5 @@
-// Sphere contacts with a deforming FE interface mesh, found by the facet > edge > vertex hierarchy.
+// Sphere contacts with a deforming FE interface mesh, found by the facet > edge > vertex hierarchy, forces from the
+// contact law.
 #pragma once
 
 #include <core/Body.hpp>
@@ -25,7 +26,8 @@ public:
   using History = std::map<Body::id_t, std::vector<ContactHistory>>;
 
   void action() override;
-  /// Throws std::invalid_argument for a surface material without moduli and friction, or a restitution outside [0, 1].
+  /// Throws std::invalid_argument for a surface material that is neither a FrictMat nor a BallastMat or is invalid, or
+  /// a restitution outside [0, 1].
   void checkSettings() const;
   /// Binds the engine to an interface mesh (triangles as node indices, 3 per triangle; reference coordinates,
   /// 3 per node, for the search grid's cell size). Checks the surface material.
@@ -44,12 +46,14 @@ public:
 		"Contacts of spherical particles (and clump members) with the FE interface surface of a :yref:`FemCouplingEngine` "
 		"whose :yref:`contactModel<FemCouplingEngine.contactModel>` is ``meshContacts``: one contact per touching surface "
 		"patch, found by the facet > edge > vertex hierarchy with shadowed contacts removed; the contact-point velocity is "
-		"interpolated from the nodal velocities; Hertz-Mindlin force from the shared kernels (normal: Hertz with damping "
-		"from :yref:`FemSurfaceContactEngine.restitution`; tangential: Mindlin with a Coulomb cap at the smaller friction "
-		"coefficient of particle and surface). Forces and torques go to the particles, their reactions are lumped to the "
+		"interpolated from the nodal velocities; the force from the one contact law of the kernels (docs/contact-models.md), "
+		"its sub-models and parameters mixed from the particle's and the surface's materials as for a pair (a rough "
+		":yref:`BallastMat` selects the Pohrt-Popov laws, a smooth one or a FrictMat Hertz-Mindlin; Coulomb cap at the smaller "
+		"friction coefficient), the restitution of every particle-surface pair being :yref:`FemSurfaceContactEngine.restitution`; "
+		"no rolling resistance. Forces and torques go to the particles, their reactions are lumped to the "
 		"surface nodes with the barycentric weights of the contact points. Created and driven by the coupling engine; it "
 		"does not run on its own in :yref:`Omega.engines`.",
-		((shared_ptr<Material>, material, , , "Material of the surface (a :yref:`FrictMat` or derived: Young's modulus, Poisson's ratio, friction angle)."))
+		((shared_ptr<Material>, material, , , "Material of the surface (a :yref:`FrictMat`: Young's modulus, Poisson's ratio, friction angle; or a :yref:`BallastMat`, whose roughness and plastic unloading also count)."))
 		((Real, restitution, 0.5, , "Coefficient of restitution of particle-surface impacts [-], turned into a Hertzian damping ratio."))
 		((long, surfaceContacts, 0, Attr::readonly, "Number of particle-surface contacts at the last step."))
 	);

@@ -1,4 +1,4 @@
-// Marks kernel functions callable from both host C++ and CUDA device code.
+// Marks functions callable from both host C++ and CUDA device code (kernels, shared geometry).
 #pragma once
 
 #if defined(__CUDACC__)

@@ -50,6 +50,8 @@ public:
   void setContactLaw(const railcosim::kernels::ContactLaw& law);
   //! The selected sub-models' keywords.
   std::string contactLawKeywords() const;
+  //! Former attribute, now derived from frictionModel (row 1 is ``stress_dependent``).
+  bool stressDependentFriction() const { return frictionModel == 1; }
   // clang-format off
 	YADE_CLASS_BASE_DOC_ATTRS_CTOR_PY(BallastPhys,FrictPhys,"Interaction physics of :yref:`Law2_ScGeom_BallastPhys_Ballast` (railcosim). Inherits :yref:`normalForce<NormShearPhys.normalForce>` and :yref:`shearForce<NormShearPhys.shearForce>` [N] (forces on body 2), :yref:`kn<NormPhys.kn>` and :yref:`ks<NormShearPhys.ks>` [N/m] (current tangent stiffnesses, used by time steppers) and :yref:`tangensOfFrictionAngle<FrictPhys.tangensOfFrictionAngle>` (μ0 [-]). The sub-models are rows of the contact-law registry (docs/contact-models.md); :yref:`contactLaw<BallastPhys.contactLaw>` names them.",
 		((Real,frictionCoeff,0.0,,"Friction coefficient μ [-] used in the last step (μ0, or reduced by stress-dependent friction)."))
@@ -80,6 +82,7 @@ public:
 		createIndex();
 		,
 		.add_property("contactLaw",&BallastPhys::contactLawKeywords,"Keywords of the selected sub-models: normal + damping + tangential + friction + rolling (read-only).")
+		.add_property("stressDependentFriction",&BallastPhys::stressDependentFriction,"Whether stress-dependent friction applies (read-only; kept for scripts written before :yref:`frictionModel<BallastPhys.frictionModel>`, which it reads: ``frictionModel == 1``).")
 	);
   // clang-format on
   REGISTER_CLASS_INDEX(BallastPhys, FrictPhys);

@@ -86,7 +86,7 @@ public:
   /// Sends the window's nodal forces [N] (force on the structure, 3 per node) stamped with `time` [s],
   /// receives the FEM's answer and judges it. `surfaceTouched`: whether any particle touched the surface
   /// during the window (a window without contact cannot depend on where the surface was assumed).
-  WindowResult completeWindow(const std::vector<double>& forces, double time, bool surfaceTouched);
+  WindowResult completeWindow(std::vector<double> forces, double time, bool surfaceTouched);
   std::uint64_t window() const { return window_; }      // index of the window being simulated
   virtual std::uint32_t iteration() const { return 0; } // pass over it (0 = first)
   /// FEM steps between the forces of window i and the step they drive (predictive: 1; the FEM's first

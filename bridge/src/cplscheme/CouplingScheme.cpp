@@ -4,6 +4,8 @@
 #include "railcosim/Participant.hpp"
 #include "railcosim/WindowInterpolation.hpp"
 
+#include <utility>
+
 namespace railcosim {
 
 void SchemeSettings::validate() const {
@@ -26,12 +28,12 @@ void DemCouplingScheme::surfaceAt(double tau, std::vector<double>& positions, st
   extrapolateSurface(windowStart_, tau, positions, velocities);
 }
 
-WindowResult DemCouplingScheme::completeWindow(const std::vector<double>& forces, double time, bool surfaceTouched) {
+WindowResult DemCouplingScheme::completeWindow(std::vector<double> forces, double time, bool surfaceTouched) {
   ForceMessage message;
   message.window = window_;
   message.iteration = iteration();
   message.time = time;
-  message.forces = forces;
+  message.forces = std::move(forces); // taken by value: a caller done with its vector moves it in, no copy
   const WindowResult result = exchange(message, surfaceTouched);
   if (!result.repeat) {
     ++window_;

@@ -196,7 +196,7 @@ bool FemCouplingEngine::exchange() {
     totalForce += nodalForces[i];
   }
   const double before = participant->statistics().waitSeconds;
-  const railcosim::WindowResult result = coupling->completeWindow(forces, scene->time, surfaceTouched);
+  const railcosim::WindowResult result = coupling->completeWindow(std::move(forces), scene->time, surfaceTouched);
   waitTime += participant->statistics().waitSeconds - before;
   std::fill(forceSum.begin(), forceSum.end(), 0.0); // the window's sum is in the message
   surfaceTouched = false;

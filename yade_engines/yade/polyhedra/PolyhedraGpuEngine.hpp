@@ -4,6 +4,7 @@
 #include <core/Body.hpp>
 #include <core/GlobalEngine.hpp>
 
+#include <map>
 #include <memory>
 #include <string>
 #include <vector>
@@ -18,7 +19,9 @@ class PolyhedraGpuEngine : public GlobalEngine {
 public:
   void action() override;
   void initialize();
-  void addStone(Body::id_t id, const std::vector<Vector3r>& vertices);
+  void addStone(Body::id_t id, const std::vector<Vector3r>& vertices, Real stoneDilation);
+  void setWallVelocity(const std::vector<Body::id_t>& facets, const Vector3r& velocity);
+  Vector3r wallForce(const std::vector<Body::id_t>& facets) const;
   virtual ~PolyhedraGpuEngine();
 
   // clang-format off
@@ -27,8 +30,8 @@ public:
 		":yref:`Sphere` of the stone's circumradius is convenient for display and output) registered with "
 		":yref:`PolyhedraGpuEngine.addStone` together with its convex core vertices in the body frame; the stone is that "
 		"core dilated by :yref:`PolyhedraGpuEngine.dilationRadius`, and identical cores share one shape template. Contacts: gap between the cores (GJK), Hertz-Mindlin with the dilation curvature, damping from "
-		":yref:`PolyhedraGpuEngine.restitution`, Coulomb friction with tangential history; :yref:`Facet` bodies are fixed "
-		"triangle walls. Integration: velocity Verlet and the Zhao-van Wachem quaternion scheme, with :yref:`Omega.dt`. "
+		":yref:`PolyhedraGpuEngine.restitution`, Coulomb friction with tangential history; :yref:`Facet` bodies are "
+		"triangle walls, fixed unless moved with :yref:`PolyhedraGpuEngine.setWallVelocity`. Integration: velocity Verlet and the Zhao-van Wachem quaternion scheme, with :yref:`Omega.dt`. "
 		"The stones are advanced in batches of :yref:`PolyhedraGpuEngine.syncInterval` steps; at the end of each batch "
 		"(when the scene's time has caught up) their positions, orientations and velocities are written back to the YADE "
 		"bodies, for output, coupling and Python access (the YADE bodies' own shapes take no part in the contacts). "
@@ -38,6 +41,9 @@ public:
 		((int, syncInterval, 100, , "Steps per batch; the YADE bodies are updated at the end of each batch."))
 		((Real, dilationRadius, 0.002, , "Dilation radius r_d of every stone [m] (the stone is its YADE polyhedron dilated by r_d)."))
 		((Real, restitution, 0.3, , "Coefficient of restitution of all contacts [-]."))
+		((Real, wallFriction, -1, , "Coulomb coefficient of the wall material [-] (a stone-wall pair takes the smaller of it and the stones'); negative: the stones' own. 0 makes the walls frictionless mirror planes."))
+		((int, maxNeighbours, 24, , "Stone candidates stored per stone (partners with a larger index) [-]; raise it for a scene with a few stones much larger than the others (e.g. sensor blocks)."))
+		((int, maxWallNeighbours, 8, , "Wall triangles stored per stone [-]."))
 		((Vector3r, gravity, Vector3r(0, 0, -9.81), , "Gravity acceleration [m/s^2]."))
 		((string, backend, "automatic", , "``automatic`` (GPU when usable, else CPU), ``cpu`` or ``cuda``."))
 		((int, rebuildInterval, 10, , "Steps between neighbour-list rebuilds (each batch starts with one)."))
@@ -50,19 +56,28 @@ public:
 		, /* ctor */
 		, /* py */
 		.def("initialize", &PolyhedraGpuEngine::initialize, "Hand the stones and walls to the polyhedra system now (otherwise done at the first step).")
-		.def("addStone", &PolyhedraGpuEngine::addStone, (py::arg("id"), py::arg("vertices")), "Register body *id* as a stone whose convex core has *vertices* (list of Vector3, body frame, m). Before the first step only.")
+		.def("addStone", &PolyhedraGpuEngine::addStone, (py::arg("id"), py::arg("vertices"), py::arg("dilationRadius") = 0), "Register body *id* as a stone whose convex core has *vertices* (list of Vector3, body frame, m), dilated by *dilationRadius* [m] (0: :yref:`PolyhedraGpuEngine.dilationRadius`). Before the first step only.")
+		.def("setWallVelocity", &PolyhedraGpuEngine::setWallVelocity, (py::arg("facets"), py::arg("velocity")), "Move the :yref:`Facet` bodies *facets* (ids) rigidly with *velocity* [m/s] from the next batch on, until changed (e.g. a compaction plate); the facets' YADE states follow at the end of each batch.")
+		.def("wallForce", &PolyhedraGpuEngine::wallForce, (py::arg("facets")), "Force of the stones on the :yref:`Facet` bodies *facets* (ids) [N], mean over the steps of the last batch.")
 	);
   // clang-format on
   DECLARE_LOGGER;
 
 private:
   void syncBack();
+  int triangleOf(Body::id_t facet) const;
+  void moveWalls(Real duration);
 
   std::shared_ptr<railcosim::polyhedra::PolyhedraSystem> system;
   std::vector<Body::id_t> stoneIds;
   std::vector<std::vector<Vector3r>> stoneCores; // registered core vertices, same order
   std::vector<Quaternionr> principalToBody;      // rotation from the stone's principal frame to the YADE body frame
   std::vector<Vector3r> centroidInBody;          // stone centroid in the YADE body frame
+  std::vector<Real> stoneDilations;              // r_d of each registered stone [m], 0: dilationRadius
+  // Wall mesh as handed to the system: 3 nodes per facet; node positions and velocities [m, m/s] of moving facets.
+  std::map<Body::id_t, int> triangleOfFacet;
+  std::vector<double> wallNodePositions, wallNodeVelocities;
+  bool wallsMove = false;
 };
 REGISTER_SERIALIZABLE(PolyhedraGpuEngine);
 

@@ -147,6 +147,15 @@ squeeze = engine.wallForce(ceiling)[2]
 check(squeeze > 100 * weight and abs(engine.wallForce(floor)[2] + squeeze + weight) < 1e-3 * weight,
       f"pressed between two walls: ceiling {squeeze:.1f} N up, floor {engine.wallForce(floor)[2]:.1f} N (balance with the weight)")
 
+# 6. Critical time step: the Hertz contact step of the kernels, smaller for a harder contact (8x the force:
+# half the squared step), the smaller of force and impact when both are given, and above the checks' 1e-5 s.
+engine, stone, floor, _ = floor_scene(-1)
+at_force, at_8_force = engine.criticalTimeStep(normalForce=10.0), engine.criticalTimeStep(normalForce=80.0)
+at_speed = engine.criticalTimeStep(impactVelocity=1.0)
+check(abs((at_8_force / at_force) ** 2 - 0.5) < 1e-9, f"critical step {at_force:.3e} s at 10 N, {at_8_force:.3e} s at 80 N")
+check(engine.criticalTimeStep(10.0, 1.0) == min(at_force, at_speed) and at_speed > 1e-5,
+      f"critical step at 1 m/s impact {at_speed:.3e} s; both: the smaller")
+
 # 4. Bad input is refused with a message naming the problem.
 for action, needle in ((lambda: PolyhedraGpuEngine().addStone(12345, cube), "no body"),
                        (lambda: PolyhedraGpuEngine().addStone(0, cube[:3]), "4 vertices")):

@@ -9,6 +9,7 @@
 
 #include <Eigen/Eigenvalues>
 
+#include "kernels/CriticalTimeStep.hpp"
 #include "kernels/MathConstants.hpp"
 #include "polyhedra/PolyhedraBackend.hpp"
 #include "railcosim/Error.hpp"
@@ -582,6 +583,25 @@ double PolyhedraSystem::time() const { return implementation_->time; }
 Backend PolyhedraSystem::activeBackend() const { return implementation_->active; }
 const std::string& PolyhedraSystem::backendReason() const { return implementation_->reason; }
 const StepStatistics& PolyhedraSystem::lastStatistics() const { return implementation_->statistics; }
+
+double PolyhedraSystem::criticalTimeStep(double normalForce, double impactVelocity) const {
+  const HostData& d = implementation_->data;
+  if (d.shapes.empty()) fail("criticalTimeStep", "no shapes: add them first");
+  if (!(normalForce > 0.0) && !(impactVelocity > 0.0))
+    fail("criticalTimeStep", "give a contact force [N] or an impact speed [m/s] > 0");
+  double step = INFINITY;
+  for (const ShapeData& shape : d.shapes) {
+    kernels::ContactLaw pair = d.stoneLaw, wall = d.wallLaw;
+    kernels::setContactGeometry(pair, 0.5 * shape.dilationRadius, 0.5 * shape.mass);
+    kernels::setContactGeometry(wall, shape.dilationRadius, shape.mass);
+    for (const kernels::ContactLaw* law : {&pair, &wall}) {
+      const kernels::HertzMindlinParams& p = law->params.hertzMindlin;
+      if (normalForce > 0.0) step = std::min(step, kernels::hertzCriticalTimeStepAtForce(p, normalForce));
+      if (impactVelocity > 0.0) step = std::min(step, kernels::hertzCriticalTimeStep(p, impactVelocity));
+    }
+  }
+  return step;
+}
 
 std::vector<double> PolyhedraSystem::positions() const {
   implementation_->sync();

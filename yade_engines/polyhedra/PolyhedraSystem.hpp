@@ -120,6 +120,12 @@ public:
   /// move with that constant velocity during the following `step` call.
   void setSurfaceKinematics(const std::vector<double>& positions, const std::vector<double>& velocities);
 
+  /// Smallest critical time step over the shape templates [s] (kernels/CriticalTimeStep.hpp, Hertz estimate):
+  /// two equal stones (R* = r_d/2, m* = m/2) and a stone on a wall (R* = r_d, m* = m), each for a contact carrying
+  /// `normalForce` [N] (if > 0) and an impact at `impactVelocity` [m/s] (if > 0). The stone's rotation enters as
+  /// the kernel's 3.5 k_t; several contacts per stone and lever arms longer than a sphere's call for 0.2–0.5 of it.
+  double criticalTimeStep(double normalForce, double impactVelocity) const;
+
   /// Changes Δt [s] / gravity [m/s^2] for the following steps (e.g. a coarse packing phase, YADE's O.dt).
   void setTimeStep(double timeStep);
   void setGravity(const std::array<double, 3>& gravity);

@@ -165,6 +165,11 @@ void PolyhedraGpuEngine::setWallVelocity(const std::vector<Body::id_t>& facets, 
   wallsMove = true;
 }
 
+Real PolyhedraGpuEngine::criticalTimeStep(Real normalForce, Real impactVelocity) {
+  initialize();
+  return system->criticalTimeStep(normalForce, impactVelocity);
+}
+
 Vector3r PolyhedraGpuEngine::wallForce(const std::vector<Body::id_t>& facets) const {
   if (!system) throw std::runtime_error("PolyhedraGpuEngine.wallForce: no batch has run yet.");
   const std::vector<double> forces = system->triangleForces();

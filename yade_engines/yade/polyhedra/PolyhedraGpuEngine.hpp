@@ -22,6 +22,7 @@ public:
   void addStone(Body::id_t id, const std::vector<Vector3r>& vertices, Real stoneDilation);
   void setWallVelocity(const std::vector<Body::id_t>& facets, const Vector3r& velocity);
   Vector3r wallForce(const std::vector<Body::id_t>& facets) const;
+  Real criticalTimeStep(Real normalForce, Real impactVelocity);
   virtual ~PolyhedraGpuEngine();
 
   // clang-format off
@@ -58,6 +59,7 @@ public:
 		.def("initialize", &PolyhedraGpuEngine::initialize, "Hand the stones and walls to the polyhedra system now (otherwise done at the first step).")
 		.def("addStone", &PolyhedraGpuEngine::addStone, (py::arg("id"), py::arg("vertices"), py::arg("dilationRadius") = 0), "Register body *id* as a stone whose convex core has *vertices* (list of Vector3, body frame, m), dilated by *dilationRadius* [m] (0: :yref:`PolyhedraGpuEngine.dilationRadius`). Before the first step only.")
 		.def("setWallVelocity", &PolyhedraGpuEngine::setWallVelocity, (py::arg("facets"), py::arg("velocity")), "Move the :yref:`Facet` bodies *facets* (ids) rigidly with *velocity* [m/s] from the next batch on, until changed (e.g. a compaction plate); the facets' YADE states follow at the end of each batch.")
+		.def("criticalTimeStep", &PolyhedraGpuEngine::criticalTimeStep, (py::arg("normalForce") = 0, py::arg("impactVelocity") = 0), "Smallest critical time step of the registered stones [s] for contacts carrying *normalForce* [N] and impacts at *impactVelocity* [m/s] (whichever are > 0): Hertz contact-oscillator limit (kernels/CriticalTimeStep.hpp) of two equal stones and of a stone on a wall, over the shape templates. Initializes the system. Take 0.2-0.5 of it.")
 		.def("wallForce", &PolyhedraGpuEngine::wallForce, (py::arg("facets")), "Force of the stones on the :yref:`Facet` bodies *facets* (ids) [N], mean over the steps of the last batch.")
 	);
   // clang-format on

@@ -58,14 +58,31 @@ poly::Material polyhedraMaterial(const Material& material, const std::string& ow
 
 PolyhedraGpuEngine::~PolyhedraGpuEngine() = default;
 
-void PolyhedraGpuEngine::addStone(Body::id_t id, const std::vector<Vector3r>& vertices) {
+void PolyhedraGpuEngine::addStone(Body::id_t id, const std::vector<Vector3r>& vertices, Real stoneDilationRadius) {
   if (system) throw std::runtime_error("PolyhedraGpuEngine.addStone: stones can only be added before the first step.");
   if (id < 0 || id >= static_cast<Body::id_t>(scene->bodies->size()) || !(*scene->bodies)[id])
     throw std::invalid_argument("PolyhedraGpuEngine.addStone: no body #" + std::to_string(id) + " in the scene.");
   if (vertices.size() < 4)
     throw std::invalid_argument("PolyhedraGpuEngine.addStone: a convex core needs at least 4 vertices.");
+  if (!(stoneDilationRadius > 0) && stoneDilationRadius != -1)
+    throw std::invalid_argument("PolyhedraGpuEngine.addStone: dilationRadius must be positive [m] (or left out).");
   stoneIds.push_back(id);
   stoneCores.push_back(vertices);
+  stoneDilation.push_back(stoneDilationRadius);
+}
+
+Real PolyhedraGpuEngine::dilatedVolume(const std::vector<Vector3r>& vertices, Real dilationRadius) {
+  std::vector<double> points;
+  for (const Vector3r& v : vertices)
+    for (int k = 0; k < 3; ++k) points.push_back(v[k]);
+  try {
+    poly::Parameters parameters;
+    parameters.backend = poly::Backend::Cpu;
+    poly::PolyhedraSystem system(parameters);
+    return system.shapeProperties(system.addShape(poly::convexHullTemplate(points, dilationRadius, 1.0))).dilatedVolume;
+  } catch (const railcosim::Error& e) {
+    throw std::invalid_argument(std::string("PolyhedraGpuEngine.dilatedVolume: ") + e.what());
+  }
 }
 
 void PolyhedraGpuEngine::attachSurface(const std::vector<int32_t>& triangles, const std::vector<double>& coordinates,
@@ -135,7 +152,7 @@ void PolyhedraGpuEngine::initialize() {
   parameters.backend = parseBackend(backend);
   system = std::make_shared<poly::PolyhedraSystem>(parameters);
 
-  // 2. One template per distinct core (vertices in the body frame, compared exactly).
+  // 2. One template per distinct core and dilation (vertices in the body frame, compared exactly).
   std::map<std::vector<double>, int> templateOf;
   principalToBody.clear();
   centroidInBody.clear();
@@ -143,11 +160,12 @@ void PolyhedraGpuEngine::initialize() {
     std::vector<double> vertices;
     for (const Vector3r& v : stoneCores[i])
       for (int k = 0; k < 3; ++k) vertices.push_back(v[k]);
-    auto found = templateOf.find(vertices);
+    const double radius = stoneDilation[i] > 0 ? stoneDilation[i] : dilationRadius;
+    std::vector<double> key = vertices;
+    key.push_back(radius);
+    auto found = templateOf.find(key);
     if (found == templateOf.end())
-      found = templateOf
-                  .emplace(vertices, system->addShape(poly::convexHullTemplate(vertices, dilationRadius, frict->density)))
-                  .first;
+      found = templateOf.emplace(key, system->addShape(poly::convexHullTemplate(vertices, radius, frict->density))).first;
     const int shapeIndex = found->second;
     const poly::ShapeProperties& props = system->shapeProperties(shapeIndex);
     const Quaternionr toBody = quaternion(props.principalToGiven.data());

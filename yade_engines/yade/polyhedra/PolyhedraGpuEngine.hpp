@@ -30,7 +30,9 @@ class PolyhedraGpuEngine : public GlobalEngine {
 public:
   void action() override;
   void initialize();
-  void addStone(Body::id_t id, const std::vector<Vector3r>& vertices);
+  void addStone(Body::id_t id, const std::vector<Vector3r>& vertices, Real stoneDilationRadius = -1);
+  /// Volume of the convex hull of `vertices` dilated by `dilationRadius` (Steiner formula, as the engine computes it).
+  static Real dilatedVolume(const std::vector<Vector3r>& vertices, Real dilationRadius);
   virtual ~PolyhedraGpuEngine();
 
   // The coupled surface (C++ side of FemCouplingEngine with contactModel='polyhedra').
@@ -101,7 +103,8 @@ public:
 		, /* ctor */
 		, /* py */
 		.def("initialize", &PolyhedraGpuEngine::initialize, "Hand the stones and walls to the polyhedra system now (otherwise done at the first step). A FemCouplingEngine with contactModel='polyhedra' in O.engines connects first, so that its surface joins the walls.")
-		.def("addStone", &PolyhedraGpuEngine::addStone, (py::arg("id"), py::arg("vertices")), "Register body *id* as a stone whose convex core has *vertices* (list of Vector3, body frame, m). Before the first step only. At initialization the body's :yref:`State.mass` becomes the dilated stone's mass [kg] (density of its material; its inertia stays the YADE body's own, unused by the engine).")
+		.def("addStone", &PolyhedraGpuEngine::addStone, (py::arg("id"), py::arg("vertices"), py::arg("dilationRadius") = -1), "Register body *id* as a stone whose convex core has *vertices* (list of Vector3, body frame, m), dilated by *dilationRadius* [m] (default: :yref:`PolyhedraGpuEngine.dilationRadius`). Stones with the same core and dilation share a template. Before the first step only. At initialization the body's :yref:`State.mass` becomes the dilated stone's mass [kg] (density of its material; its inertia stays the YADE body's own, unused by the engine).")
+		.def("dilatedVolume", &PolyhedraGpuEngine::dilatedVolume, (py::arg("vertices"), py::arg("dilationRadius"))).staticmethod("dilatedVolume")
 		.def("contacts", &PolyhedraGpuEngine::contactsPy, "Active contacts at the last force evaluation of the last batch, a list of dicts: ``id1``, ``id2`` (YADE body ids of the two stones; ``id2`` = -1 for a wall or surface contact), ``triangle`` (index in the wall mesh, -1 between stones), ``facet`` (the Facet body's id, -1 otherwise), ``surfaceTriangle`` (index in the coupled surface's triangles, :yref:`FemCouplingEngine.triangles`, -1 otherwise), ``point`` (contact point [m]), ``normal`` (unit, from id1 towards id2 or the wall), ``force`` (force on id2 or on the wall [N]; id1 receives the opposite), ``overlap`` [m].")
 		.def("stoneForces", &PolyhedraGpuEngine::stoneForcesPy, "Contact force on each stone at the last force evaluation, gravity excluded: dict {body id: Vector3} [N].")
 		.def("stoneTorques", &PolyhedraGpuEngine::stoneTorquesPy, "Contact torque on each stone about its centre of mass at the last force evaluation: dict {body id: Vector3} [N m].")
@@ -118,6 +121,7 @@ private:
   std::shared_ptr<railcosim::polyhedra::PolyhedraSystem> system;
   std::vector<Body::id_t> stoneIds;
   std::vector<std::vector<Vector3r>> stoneCores; // registered core vertices, same order
+  std::vector<Real> stoneDilation;               // r_d per stone [m]; < 0: dilationRadius
   std::vector<Quaternionr> principalToBody;      // rotation from the stone's principal frame to the YADE body frame
   std::vector<Vector3r> centroidInBody;          // stone centroid in the YADE body frame
   // Wall mesh: the facets' triangles (three nodes each, at rest), then the coupled surface's.

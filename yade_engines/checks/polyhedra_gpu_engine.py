@@ -92,14 +92,16 @@ check(max(speeds) < 5e-3, f"bed at rest after {O.time:.2f} s: max |v| = {max(spe
 
 # 5. Per-stone dilation, wall force, frictionless walls, a moving wall.
 # A cube with its own r_d = 5 mm rests at half-edge + 5 mm; the floor carries its weight (wallForce); on a
-# frictionless floor (wallFriction = 0) it slides at constant speed; a ceiling moved down by setWallVelocity
+# frictionless floor (a facet material without friction) it slides at constant speed; a ceiling moved down by setWallVelocity
 # travels v t exactly and pushes the cube down with it.
 def floor_scene(friction, with_ceiling=False):
     O.reset()
     mat = O.materials.append(FrictMat(young=1e8, poisson=0.25, density=2600, frictionAngle=0.5))
+    floor_mat = mat if friction < 0 else O.materials.append(FrictMat(young=1e8, poisson=0.25, density=2600,
+                                                                       frictionAngle=math.atan(friction)))
     corners = [Vector3(-1, -1, 0), Vector3(1, -1, 0), Vector3(1, 1, 0), Vector3(-1, 1, 0)]
-    floor = [O.bodies.append(utils.facet((corners[0], corners[1], corners[2]), material=mat)),
-             O.bodies.append(utils.facet((corners[0], corners[2], corners[3]), material=mat))]
+    floor = [O.bodies.append(utils.facet((corners[0], corners[1], corners[2]), material=floor_mat)),
+             O.bodies.append(utils.facet((corners[0], corners[2], corners[3]), material=floor_mat))]
     ceiling = []
     if with_ceiling:
         top = [c + Vector3(0, 0, 0.05) for c in corners]
@@ -107,7 +109,7 @@ def floor_scene(friction, with_ceiling=False):
                    O.bodies.append(utils.facet((top[0], top[3], top[2]), material=mat))]
     stone = O.bodies.append(utils.sphere((0, 0, half + 0.005), math.sqrt(3) * half + 0.005, material=mat))
     engine = PolyhedraGpuEngine(syncInterval=50, dilationRadius=dilation, restitution=0.3, backend="cpu",
-                                wallFriction=friction, gravity=(0, 0, -g))
+                                gravity=(0, 0, -g))
     engine.addStone(stone, cube, dilationRadius=0.005)
     O.engines = [engine]
     O.dt = 1e-5

@@ -1,8 +1,10 @@
 // PolyhedraGpuEngine: hands YADE's polyhedra to the dilated-polyhedra system, advances it in batches, syncs back.
 #include "PolyhedraGpuEngine.hpp"
 
+#include "../contact/BallastContact.hpp"
 #include "polyhedra/PolyhedraShapes.hpp"
 #include "polyhedra/PolyhedraSystem.hpp"
+#include "railcosim/Error.hpp"
 
 #include <core/Scene.hpp>
 #include <core/State.hpp>
@@ -10,6 +12,8 @@
 #include <pkg/dem/FrictPhys.hpp>
 #include <pkg/dem/NewtonIntegrator.hpp>
 
+#include <algorithm>
+#include <fstream>
 #include <map>
 
 namespace yade {
@@ -17,9 +21,13 @@ namespace yade {
 YADE_PLUGIN((PolyhedraGpuEngine));
 CREATE_LOGGER(PolyhedraGpuEngine);
 
+PolyhedraSurfaceSource::~PolyhedraSurfaceSource() = default;
+
 namespace {
 namespace poly = railcosim::polyhedra;
 Quaternionr quaternion(const double* wxyz) { return Quaternionr(wxyz[0], wxyz[1], wxyz[2], wxyz[3]); }
+Vector3r toVector3r(const double* xyz) { return Vector3r(xyz[0], xyz[1], xyz[2]); }
+Vector3r toVector3r(const std::array<double, 3>& xyz) { return Vector3r(xyz[0], xyz[1], xyz[2]); }
 
 poly::Backend parseBackend(const std::string& name) {
   if (name == "automatic") return poly::Backend::Automatic;
@@ -28,21 +36,78 @@ poly::Backend parseBackend(const std::string& name) {
   throw std::invalid_argument("PolyhedraGpuEngine.backend='" + name +
                               "' is not known; use 'automatic', 'cpu' or 'cuda'.");
 }
+
+// A YADE material as the polyhedra library takes it, through the one material-to-law conversion of the contact plugin
+// (contactMaterialOf): every attribute of a BallastMat; a FrictMat's moduli and friction with `restitution`.
+poly::Material polyhedraMaterial(const Material& material, const std::string& owner, Real restitution) {
+  railcosim::kernels::ContactMaterial m = contactMaterialOf(material, "PolyhedraGpuEngine: " + owner);
+  if (!dynamic_cast<const BallastMat*>(&material)) m.restitution = restitution;
+  railcosim::kernels::validate(m, "PolyhedraGpuEngine: " + owner);
+  poly::Material result;
+  result.youngModulus = m.youngModulus;
+  result.poissonRatio = m.poissonRatio;
+  result.restitution = m.restitution;
+  result.friction = m.frictionCoefficient;
+  result.roughnessRms = m.roughnessRms;
+  result.fractalDimension = m.fractalDimension;
+  result.plasticUnloading = m.plasticUnloading;
+  result.frictionExponent = m.frictionExponent;
+  result.maxContactStress = m.maxContactStress;
+  return result;
+}
 } // namespace
 
 PolyhedraGpuEngine::~PolyhedraGpuEngine() = default;
 
-void PolyhedraGpuEngine::addStone(Body::id_t id, const std::vector<Vector3r>& vertices, Real stoneDilation) {
+void PolyhedraGpuEngine::addStone(Body::id_t id, const std::vector<Vector3r>& vertices, Real stoneDilationRadius) {
   if (system) throw std::runtime_error("PolyhedraGpuEngine.addStone: stones can only be added before the first step.");
   if (id < 0 || id >= static_cast<Body::id_t>(scene->bodies->size()) || !(*scene->bodies)[id])
     throw std::invalid_argument("PolyhedraGpuEngine.addStone: no body #" + std::to_string(id) + " in the scene.");
   if (vertices.size() < 4)
     throw std::invalid_argument("PolyhedraGpuEngine.addStone: a convex core needs at least 4 vertices.");
-  if (!(stoneDilation >= 0))
-    throw std::invalid_argument("PolyhedraGpuEngine.addStone: dilationRadius must be >= 0 m (0: the engine's).");
+  if (!(stoneDilationRadius > 0) && stoneDilationRadius != -1)
+    throw std::invalid_argument("PolyhedraGpuEngine.addStone: dilationRadius must be positive [m] (or left out).");
   stoneIds.push_back(id);
   stoneCores.push_back(vertices);
-  stoneDilations.push_back(stoneDilation);
+  stoneDilation.push_back(stoneDilationRadius);
+}
+
+Real PolyhedraGpuEngine::dilatedVolume(const std::vector<Vector3r>& vertices, Real dilationRadius) {
+  std::vector<double> points;
+  for (const Vector3r& v : vertices)
+    for (int k = 0; k < 3; ++k) points.push_back(v[k]);
+  try {
+    poly::Parameters parameters;
+    parameters.backend = poly::Backend::Cpu;
+    poly::PolyhedraSystem system(parameters);
+    return system.shapeProperties(system.addShape(poly::convexHullTemplate(points, dilationRadius, 1.0))).dilatedVolume;
+  } catch (const railcosim::Error& e) {
+    throw std::invalid_argument(std::string("PolyhedraGpuEngine.dilatedVolume: ") + e.what());
+  }
+}
+
+void PolyhedraGpuEngine::attachSurface(const std::vector<int32_t>& triangles, const std::vector<double>& coordinates,
+                                       const shared_ptr<Material>& material, Real restitution) {
+  if (system)
+    throw std::runtime_error(
+        "PolyhedraGpuEngine: a coupled surface must be attached before the engine is initialized (it was initialized "
+        "before the FemCouplingEngine connected; put both engines in O.engines before the first step, or call "
+        "FemCouplingEngine.connect() before PolyhedraGpuEngine.initialize()).");
+  if (hasSurface())
+    throw std::runtime_error("PolyhedraGpuEngine: a coupled surface is already attached; one FemCouplingEngine with "
+                             "contactModel='polyhedra' per polyhedra engine.");
+  checkSurfaceMaterial(material, restitution); // refused now rather than at initialization
+  surfaceConnectivity = triangles;
+  surfaceCoordinates = coordinates;
+  surfaceMaterial = material;
+  surfaceRestitution = restitution;
+  surfaceNodes = static_cast<int>(coordinates.size() / 3);
+  surfaceTriangles = static_cast<int>(triangles.size() / 3);
+}
+
+void PolyhedraGpuEngine::checkSurfaceMaterial(const shared_ptr<Material>& material, Real restitution) {
+  if (!material) throw std::invalid_argument("PolyhedraGpuEngine: the coupled surface has no material.");
+  polyhedraMaterial(*material, "the coupled surface's material", restitution);
 }
 
 void PolyhedraGpuEngine::initialize() {
@@ -55,23 +120,36 @@ void PolyhedraGpuEngine::initialize() {
     if (boost::dynamic_pointer_cast<NewtonIntegrator>(engine))
       throw std::invalid_argument("PolyhedraGpuEngine integrates the stones itself: remove " + engine->getClassName() +
                                   " from O.engines (it would move the stones a second time).");
+  // A coupling engine's surface joins the walls; it may have to connect to the FEM side first.
+  for (const auto& engine : scene->engines)
+    if (auto* source = dynamic_cast<PolyhedraSurfaceSource*>(engine.get())) source->attachPolyhedraSurface();
+  if (system) return; // attaching initialized this engine (a coupling engine that drives it)
 
   // 1. Stones: the registered bodies; the first one's material stands for all.
   if (stoneIds.empty())
     throw std::invalid_argument("PolyhedraGpuEngine: no stones; register them with addStone(id, vertices) first.");
-  const FrictMat* material = dynamic_cast<const FrictMat*>((*scene->bodies)[stoneIds.front()]->material.get());
-  if (!material) throw std::invalid_argument("PolyhedraGpuEngine: the stones need a FrictMat material.");
+  const shared_ptr<Material>& stoneMaterial = (*scene->bodies)[stoneIds.front()]->material;
+  if (!stoneMaterial) throw std::invalid_argument("PolyhedraGpuEngine: the first stone has no material.");
+  for (Body::id_t id : stoneIds)
+    if ((*scene->bodies)[id]->material != stoneMaterial) {
+      LOG_WARN("PolyhedraGpuEngine: stones have different materials; the first stone's ("
+               << stoneMaterial->getClassName() << " '" << stoneMaterial->label << "') is used for all.");
+      break;
+    }
+  const auto* frict = dynamic_cast<const FrictMat*>(stoneMaterial.get());
+  if (!frict)
+    throw std::invalid_argument("PolyhedraGpuEngine: the stones need a FrictMat or BallastMat material, got a " +
+                                stoneMaterial->getClassName() + ".");
 
   poly::Parameters parameters;
   parameters.timeStep = scene->dt;
   parameters.gravity = {gravity[0], gravity[1], gravity[2]};
-  parameters.stone = {material->young, material->poisson, restitution, std::tan(material->frictionAngle)};
+  parameters.stone = polyhedraMaterial(*stoneMaterial, "the stones' material", restitution);
   parameters.wall = parameters.stone;
-  if (wallFriction >= 0) parameters.wall.friction = wallFriction;
-  parameters.maxNeighbours = maxNeighbours;
-  parameters.maxWallNeighbours = maxWallNeighbours;
   parameters.rebuildInterval = rebuildInterval;
   parameters.adaptiveRebuild = adaptiveRebuild;
+  parameters.maxNeighbours = maxNeighbours;
+  parameters.maxWallNeighbours = maxWallNeighbours;
   parameters.backend = parseBackend(backend);
   system = std::make_shared<poly::PolyhedraSystem>(parameters);
 
@@ -80,22 +158,21 @@ void PolyhedraGpuEngine::initialize() {
   principalToBody.clear();
   centroidInBody.clear();
   for (size_t i = 0; i < stoneIds.size(); ++i) {
-    const double dilation = stoneDilations[i] > 0 ? stoneDilations[i] : dilationRadius;
     std::vector<double> vertices;
     for (const Vector3r& v : stoneCores[i])
       for (int k = 0; k < 3; ++k) vertices.push_back(v[k]);
+    const double radius = stoneDilation[i] > 0 ? stoneDilation[i] : dilationRadius;
     std::vector<double> key = vertices;
-    key.push_back(dilation);
+    key.push_back(radius);
     auto found = templateOf.find(key);
     if (found == templateOf.end())
-      found = templateOf
-                  .emplace(key, system->addShape(poly::convexHullTemplate(vertices, dilation, material->density)))
-                  .first;
+      found = templateOf.emplace(key, system->addShape(poly::convexHullTemplate(vertices, radius, frict->density))).first;
     const int shapeIndex = found->second;
     const poly::ShapeProperties& props = system->shapeProperties(shapeIndex);
     const Quaternionr toBody = quaternion(props.principalToGiven.data());
     const Vector3r centroid(props.centroid[0], props.centroid[1], props.centroid[2]);
-    const State& s = *(*scene->bodies)[stoneIds[i]]->state;
+    State& s = *(*scene->bodies)[stoneIds[i]]->state;
+    s.mass = props.mass; // the dilated stone's, for momentum and energy sums over the YADE bodies
     const Vector3r position = s.pos + s.ori * centroid;
     const Quaternionr ori = s.ori * toBody;
     const Vector3r velocity = s.vel + s.angVel.cross(position - s.pos);
@@ -105,30 +182,65 @@ void PolyhedraGpuEngine::initialize() {
     centroidInBody.push_back(centroid);
   }
 
-  // 3. Facets are fixed triangle walls (each facet's three vertices; shared nodes need not be merged).
+  // 3. Walls: the facets (each facet's three vertices; shared nodes need not be merged), then the coupled surface.
+  //    Materials: one per distinct facet material, the surface's last.
   std::vector<double> coordinates;
-  std::vector<std::int32_t> triangles;
-  triangleOfFacet.clear();
+  std::vector<std::int32_t> triangles, materialOfTriangle;
+  std::vector<poly::Material> materials;
+  std::map<const Material*, int> materialIndex;
+  facetOfTriangle.clear();
   for (const auto& b : *scene->bodies) {
     const auto* facet = b ? dynamic_cast<const Facet*>(b->shape.get()) : nullptr;
     if (!facet) continue;
-    triangleOfFacet[b->id] = static_cast<int>(triangles.size() / 3);
+    if (!b->material) throw std::invalid_argument("PolyhedraGpuEngine: facet #" + std::to_string(b->id) + " has no material.");
+    auto known = materialIndex.find(b->material.get());
+    if (known == materialIndex.end()) {
+      known = materialIndex.emplace(b->material.get(), static_cast<int>(materials.size())).first;
+      materials.push_back(polyhedraMaterial(*b->material, "facet #" + std::to_string(b->id), restitution));
+    }
     for (int j = 0; j < 3; ++j) {
       const Vector3r world = b->state->pos + b->state->ori * facet->vertices[j];
       for (int k = 0; k < 3; ++k) coordinates.push_back(world[k]);
       triangles.push_back(static_cast<std::int32_t>(triangles.size()));
     }
+    materialOfTriangle.push_back(known->second);
+    facetOfTriangle.push_back(b->id);
   }
-  if (!triangles.empty()) system->setWalls(coordinates, triangles);
-  wallNodePositions = coordinates;
-  if (wallNodeVelocities.size() != coordinates.size()) wallNodeVelocities.assign(coordinates.size(), 0.0);
+  facetNodes = coordinates;
+  if (facetNodeVelocities.size() != facetNodes.size()) facetNodeVelocities.assign(facetNodes.size(), 0.0);
+  surfaceFirstTriangle = static_cast<int>(facetOfTriangle.size());
+  if (hasSurface()) {
+    const auto firstNode = static_cast<std::int32_t>(coordinates.size() / 3);
+    coordinates.insert(coordinates.end(), surfaceCoordinates.begin(), surfaceCoordinates.end());
+    for (int32_t node : surfaceConnectivity) triangles.push_back(firstNode + node);
+    materialOfTriangle.insert(materialOfTriangle.end(), surfaceTriangles, static_cast<int32_t>(materials.size()));
+    materials.push_back(polyhedraMaterial(*surfaceMaterial, "the coupled surface's material", surfaceRestitution));
+  }
+  if (materials.size() > static_cast<size_t>(poly::maxWallMaterials))
+    throw std::invalid_argument("PolyhedraGpuEngine: " + std::to_string(materials.size()) +
+                                " wall materials (distinct facet materials" +
+                                (hasSurface() ? std::string(" and the coupled surface's") : std::string()) +
+                                "), at most " + std::to_string(poly::maxWallMaterials) +
+                                "; give the facets fewer distinct materials.");
+  if (!triangles.empty()) {
+    system->setWalls(coordinates, triangles);
+    system->setWallMaterials(materials, materialOfTriangle);
+  }
 
   stones = static_cast<int>(stoneIds.size());
   shapes = static_cast<int>(templateOf.size());
+  wallTriangles = static_cast<int>(triangles.size() / 3);
   activeBackend = poly::backendName(system->activeBackend());
   backendReason = system->backendReason();
-  LOG_INFO("PolyhedraGpuEngine: " << stones << " stones, " << shapes << " shapes, " << triangles.size() / 3
-                                  << " wall triangles on " << activeBackend << " (" << backendReason << ")");
+  LOG_INFO("PolyhedraGpuEngine: " << stones << " stones, " << shapes << " shapes, " << surfaceFirstTriangle
+                                  << " facet triangles, " << surfaceTriangles << " coupled surface triangles on "
+                                  << activeBackend << " (" << backendReason << ")");
+}
+
+void PolyhedraGpuEngine::requireSystem(const char* what) const {
+  if (!system)
+    throw std::runtime_error(std::string("PolyhedraGpuEngine.") + what +
+                             ": the engine is not initialized yet (run a step or call initialize()).");
 }
 
 void PolyhedraGpuEngine::syncBack() {
@@ -146,23 +258,33 @@ void PolyhedraGpuEngine::syncBack() {
   }
 }
 
-int PolyhedraGpuEngine::triangleOf(Body::id_t facet) const {
-  const auto found = triangleOfFacet.find(facet);
-  if (found == triangleOfFacet.end())
+int PolyhedraGpuEngine::triangleOfFacet(Body::id_t facet) const {
+  const auto found = std::find(facetOfTriangle.begin(), facetOfTriangle.end(), facet);
+  if (found == facetOfTriangle.end())
     throw std::invalid_argument("PolyhedraGpuEngine: body #" + std::to_string(facet) +
-                                " is not one of the wall facets handed to the polyhedra system at initialization.");
-  return found->second;
+                                " is not one of the facets handed to the polyhedra system at initialization.");
+  return static_cast<int>(found - facetOfTriangle.begin());
 }
 
 void PolyhedraGpuEngine::setWallVelocity(const std::vector<Body::id_t>& facets, const Vector3r& velocity) {
   initialize();
+  if (hasSurface())
+    throw std::runtime_error("PolyhedraGpuEngine.setWallVelocity: facets stay fixed while a coupled surface drives the engine.");
   for (Body::id_t id : facets) {
-    const int triangle = triangleOf(id);
+    const int triangle = triangleOfFacet(id);
     for (int node = 3 * triangle; node < 3 * triangle + 3; ++node)
-      for (int k = 0; k < 3; ++k) wallNodeVelocities[3 * node + k] = velocity[k];
+      for (int k = 0; k < 3; ++k) facetNodeVelocities[3 * node + k] = velocity[k];
     (*scene->bodies)[id]->state->vel = velocity;
   }
-  wallsMove = true;
+  facetsMove = true;
+}
+
+Vector3r PolyhedraGpuEngine::wallForce(const std::vector<Body::id_t>& facets) const {
+  requireSystem("wallForce");
+  const std::vector<double> forces = system->triangleForces();
+  Vector3r total = Vector3r::Zero();
+  for (Body::id_t id : facets) total += toVector3r(&forces[3 * triangleOfFacet(id)]);
+  return total;
 }
 
 Real PolyhedraGpuEngine::criticalTimeStep(Real normalForce, Real impactVelocity) {
@@ -170,37 +292,120 @@ Real PolyhedraGpuEngine::criticalTimeStep(Real normalForce, Real impactVelocity)
   return system->criticalTimeStep(normalForce, impactVelocity);
 }
 
-Vector3r PolyhedraGpuEngine::wallForce(const std::vector<Body::id_t>& facets) const {
-  if (!system) throw std::runtime_error("PolyhedraGpuEngine.wallForce: no batch has run yet.");
-  const std::vector<double> forces = system->triangleForces();
-  Vector3r total = Vector3r::Zero();
-  for (Body::id_t id : facets) {
-    const int triangle = triangleOf(id);
-    total += Vector3r(forces[3 * triangle], forces[3 * triangle + 1], forces[3 * triangle + 2]);
-  }
-  return total;
-}
-
-// Moving facets: the system moves their nodes at constant velocity through a batch (setSurfaceKinematics);
-// the engine keeps the node positions and moves the facet bodies by the same displacement.
-void PolyhedraGpuEngine::moveWalls(Real duration) {
-  for (size_t k = 0; k < wallNodePositions.size(); ++k) wallNodePositions[k] += wallNodeVelocities[k] * duration;
-  for (const auto& [id, triangle] : triangleOfFacet) {
-    const double* v = &wallNodeVelocities[9 * triangle];
-    (*scene->bodies)[id]->state->pos += Vector3r(v[0], v[1], v[2]) * duration;
-  }
-}
-
 void PolyhedraGpuEngine::action() {
   initialize();
+  if (hasSurface()) return; // the coupling engine advances the stones, one window per batch
   // Advance a whole batch on the last iteration of it, so that the bodies match the scene time after it.
   if ((scene->iter + 1) % syncInterval != 0) return;
   system->setTimeStep(scene->dt);
   system->setGravity({gravity[0], gravity[1], gravity[2]});
-  if (wallsMove) system->setSurfaceKinematics(wallNodePositions, wallNodeVelocities);
+  // Moving facets (setWallVelocity): the system moves their nodes at constant velocity through the batch; the engine
+  // keeps the node positions and moves the facet bodies by the same displacement.
+  if (facetsMove) system->setSurfaceKinematics(facetNodes, facetNodeVelocities);
   system->step(syncInterval);
-  if (wallsMove) moveWalls(syncInterval * scene->dt);
+  if (facetsMove) {
+    const Real duration = syncInterval * scene->dt;
+    for (size_t k = 0; k < facetNodes.size(); ++k) facetNodes[k] += facetNodeVelocities[k] * duration;
+    for (size_t t = 0; t < facetOfTriangle.size(); ++t)
+      (*scene->bodies)[facetOfTriangle[t]]->state->pos += toVector3r(&facetNodeVelocities[9 * t]) * duration;
+  }
   meanContacts = system->lastStatistics().meanActiveContacts;
+  syncBack();
+}
+
+void PolyhedraGpuEngine::advanceWindow(const std::vector<double>& positions, const std::vector<double>& velocities,
+                                       int steps, std::vector<double>& triangleForces,
+                                       std::vector<double>& contactPoints) {
+  initialize();
+  if (!hasSurface()) throw std::logic_error("PolyhedraGpuEngine::advanceWindow without a coupled surface.");
+  if (positions.size() != 3 * static_cast<size_t>(surfaceNodes) || velocities.size() != positions.size())
+    throw std::logic_error("PolyhedraGpuEngine::advanceWindow: surface kinematics of the wrong size.");
+  // The facets' nodes stay where they are; the surface's follow the window's motion.
+  std::vector<double> nodes = facetNodes, nodeVelocities(facetNodes.size(), 0.0);
+  nodes.insert(nodes.end(), positions.begin(), positions.end());
+  nodeVelocities.insert(nodeVelocities.end(), velocities.begin(), velocities.end());
+  system->setTimeStep(scene->dt);
+  system->setGravity({gravity[0], gravity[1], gravity[2]});
+  system->setSurfaceKinematics(nodes, nodeVelocities);
+  system->step(steps);
+  meanContacts = system->lastStatistics().meanActiveContacts;
+  syncBack();
+  const std::vector<double> forces = system->triangleForces(), points = system->triangleContactPoints();
+  const auto first = forces.begin() + 3 * surfaceFirstTriangle;
+  triangleForces.assign(first, first + 3 * surfaceTriangles);
+  contactPoints.assign(points.begin() + 3 * surfaceFirstTriangle,
+                       points.begin() + 3 * (surfaceFirstTriangle + surfaceTriangles));
+  surfaceForce = Vector3r::Zero();
+  for (int t = 0; t < surfaceTriangles; ++t) surfaceForce += toVector3r(&triangleForces[3 * t]);
+}
+
+void PolyhedraGpuEngine::saveSnapshot() {
+  initialize();
+  system->saveSnapshot();
+}
+
+void PolyhedraGpuEngine::restoreSnapshot() {
+  requireSystem("restoreSnapshot");
+  system->restoreSnapshot();
+  // The YADE bodies are the scene checkpoint's business; they hold the same state.
+}
+
+boost::python::list PolyhedraGpuEngine::contactsPy() {
+  requireSystem("contacts");
+  boost::python::list result;
+  for (const poly::ContactRecord& c : system->contacts()) {
+    boost::python::dict contact;
+    const bool surface = c.wall && c.second >= surfaceFirstTriangle;
+    contact["id1"] = stoneIds[c.first];
+    contact["id2"] = c.wall ? Body::id_t(-1) : stoneIds[c.second];
+    contact["triangle"] = c.wall ? c.second : -1;
+    contact["facet"] = c.wall && !surface ? facetOfTriangle[c.second] : Body::id_t(-1);
+    contact["surfaceTriangle"] = surface ? c.second - surfaceFirstTriangle : -1;
+    contact["point"] = toVector3r(c.point);
+    contact["normal"] = toVector3r(c.normal);
+    contact["force"] = toVector3r(c.force);
+    contact["overlap"] = c.overlap;
+    result.append(contact);
+  }
+  return result;
+}
+
+boost::python::dict PolyhedraGpuEngine::stoneForcesPy() {
+  requireSystem("stoneForces");
+  boost::python::dict result;
+  const std::vector<double> f = system->forces();
+  for (size_t i = 0; i < stoneIds.size(); ++i) result[stoneIds[i]] = toVector3r(&f[3 * i]);
+  return result;
+}
+
+boost::python::dict PolyhedraGpuEngine::stoneTorquesPy() {
+  requireSystem("stoneTorques");
+  boost::python::dict result;
+  const std::vector<double> t = system->torques();
+  for (size_t i = 0; i < stoneIds.size(); ++i) result[stoneIds[i]] = toVector3r(&t[3 * i]);
+  return result;
+}
+
+void PolyhedraGpuEngine::writeStatePy(const std::string& path) {
+  initialize();
+  std::ofstream out(path, std::ios::binary);
+  if (!out) throw std::runtime_error("PolyhedraGpuEngine.writeState: cannot open '" + path + "' for writing.");
+  try {
+    system->writeState(out);
+  } catch (const railcosim::Error& e) {
+    throw std::runtime_error(std::string("PolyhedraGpuEngine.writeState('") + path + "'): " + e.what());
+  }
+}
+
+void PolyhedraGpuEngine::readStatePy(const std::string& path) {
+  initialize();
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw std::runtime_error("PolyhedraGpuEngine.readState: cannot open '" + path + "'.");
+  try {
+    system->readState(in);
+  } catch (const railcosim::Error& e) {
+    throw std::runtime_error(std::string("PolyhedraGpuEngine.readState('") + path + "'): " + e.what());
+  }
   syncBack();
 }
 

@@ -10,6 +10,7 @@ A case is a folder cases/NAME with
 The runner calls the hooks in this order; p is the resolved parameters ({name: value} over all tables, plus
 `smoke` and `case_dir`), out the run's results folder (the solvers run in it), endpoint the run's bridge address:
   check_parameters(p) -> [message]          before anything starts: rules the [limits] table cannot say
+  preparation_runs(p, out) -> [(name, argv)] runs the coupled run starts from (e.g. a particle bed), one after the other
   fem_command(p, endpoint, out) -> argv     the FreeFEM participant  } started together,
   dem_command(p, endpoint, out) -> argv     the YADE participant     } watched until both exit
   reference_runs(p, out) -> [(name, argv)]  solver-only runs to compare with, one after the other
@@ -57,6 +58,11 @@ class Case:
     def dem_command(self, p, endpoint, out):
         """The YADE participant: the case folder's dem.py."""
         return solvers.dem_command(p, endpoint, out)
+
+    def preparation_runs(self, p, out):
+        """Runs before the coupled one, [(name, argv)], in out, one after the other, their output shown; each must
+        succeed before the solvers start (fem_command and dem_command may read what they leave in out)."""
+        return []
 
     def reference_runs(self, p, out):
         """Solver-only runs after the coupled one, [(name, argv)]; each must succeed before postprocess."""

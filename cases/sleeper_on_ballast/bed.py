@@ -110,11 +110,8 @@ class Bed:
         for i in range(len(self)):
             x, y = self.position[i][:2]
             if where[0] <= x <= where[1] and where[2] <= y <= where[3]:
-                w, qx, qy, qz = self.orientation[i]
-                core = self.core(scene, i)
-                # z row of the rotation matrix of (w, x, y, z)
-                row = np.array([2 * (qx * qz - w * qy), 2 * (qy * qz + w * qx), 1 - 2 * (qx * qx + qy * qy)])
-                top = max(top, self.position[i][2] + float(np.max(core @ row)) + self.dilation[i])
+                row = sc.rotation_matrix(self.orientation[i])[2]
+                top = max(top, self.position[i][2] + float(np.max(self.core(scene, i) @ row)) + self.dilation[i])
         return top
 
 
@@ -126,7 +123,7 @@ class Stage:
         O.reset()
         self.material, wall = materials(scene)
         length, width, _ = scene["bed"]
-        top = wall_top if wall_top is not None else 1.1 * sc.BED_HEIGHT
+        top = wall_top if wall_top is not None else 1.1 * scene["bed"][2]
         self.walls = box_walls(length, width, top, wall)
         self.plate = plate_facets(plate_box, wall) if plate_box else []
         self.bed, self.scene = bed, scene
@@ -193,10 +190,9 @@ def materials(scene):
 
 
 def polyhedra_engine(scene, bed, **attributes):
-    """The PolyhedraGpuEngine of the bed: gravity, restitution, and candidate lists long enough for the sensor blocks."""
-    sensors = int(np.sum(bed.kind == SENSOR))
+    """The PolyhedraGpuEngine of the bed: gravity, restitution, candidate lists long enough for its largest bodies."""
     return PolyhedraGpuEngine(restitution=scene["material"]["restitution"], gravity=(0, 0, -sc.GRAVITY),
-                              maxNeighbours=neighbour_limit(scene, bed) if sensors else 24,
+                              maxNeighbours=neighbour_limit(scene, bed),
                               maxWallNeighbours=WALL_NEIGHBOURS, label="poly", **attributes)
 
 
@@ -222,13 +218,15 @@ def plate_facets(box, material):
 
 
 def neighbour_limit(scene, bed):
-    """Candidate list length for a bed with sensors. The polyhedra system keeps one list length for all stones, and a
-    sensor lists the stones within its bounding sphere plus theirs: 1.5 x the stones of mean size that fit, at the
-    assumed porosity, in the shell between the sensor block and the sphere of its bounding radius plus a mean stone's."""
-    stone = np.flatnonzero(bed.kind == STONE)
-    mean_reach = np.mean([bed.bounding_radius(scene, i) for i in stone[:200]])
-    reach = math.sqrt(sum((0.5 * s) ** 2 for s in sc.SENSOR_SIZE)) + mean_reach
-    shell = 4.0 / 3.0 * math.pi * reach ** 3 - math.prod(sc.SENSOR_SIZE)
+    """Candidate list length of the bed. The polyhedra system keeps one length for all stones, and the largest body
+    (a sensor block, else the largest stone) lists up to every stone within its bounding sphere plus theirs: 1.5 x the
+    stones of mean size that fit, at the assumed porosity, in the shell between that body and the sphere of its
+    bounding radius plus a mean stone's."""
+    radii = np.array([bed.bounding_radius(scene, i) for i in range(len(bed))])
+    largest = int(np.argmax(radii))
+    own = math.prod(sc.SENSOR_SIZE) if bed.kind[largest] == SENSOR else sc.stone_volume(scene, bed.shape[largest],
+                                                                                          bed.size[largest])
+    shell = 4.0 / 3.0 * math.pi * (radii[largest] + np.mean(radii[bed.kind == STONE])) ** 3 - own
     return int(max(24, 1.5 * (1 - sc.ASSUMED_POROSITY) * shell / sc.mean_stone_volume(scene)))
 
 
@@ -243,7 +241,7 @@ def generate(scene, bed, rng, z_high, p, time_step, log, name):
     """Adds the stones of a layer up to z_high above the current bed, lets everything settle."""
     length, width, _ = scene["bed"]
     floor = 0.0 if len(bed) == 0 else bed.top(scene)
-    z_low = 0.0 if len(bed) == 0 else sc.BED_HEIGHT - p["sensor_depth_m"] - sc.SENSOR_SIZE[2]
+    z_low = 0.0 if len(bed) == 0 else scene["first_trim"]
     stones = sc.layer_stones(scene, rng, z_low, z_high)
     cloud = sc.place_cloud(scene, stones, (0.0, length, 0.0, width, floor + 1e-3), rng)
     dilations = [sc.stone_core(scene, s, d)[1] for s, d in stones]
@@ -368,12 +366,18 @@ def trim(scene, bed, height, with_sensors, log, name):
     before = len(bed)
     keep = ~((bed.kind == STONE) & (bed.position[:, 2] > height))
     if with_sensors:
+        # A stone reaches into a sensor's box when the box and the stone's axis-aligned bounds (rotated core + r_d)
+        # overlap: tighter than its bounding sphere, so that the sensor's bed is not dug out below it.
         half = np.array(sc.SENSOR_SIZE) / 2.0
-        for centre in scene["sensors"]["centres"]:
-            for i in range(len(bed)):
-                if keep[i] and bed.kind[i] == STONE:
-                    d = np.maximum(np.abs(bed.position[i] - centre) - half, 0.0)
-                    keep[i] = np.linalg.norm(d) > bed.bounding_radius(scene, i)
+        for i in range(len(bed)):
+            if not keep[i] or bed.kind[i] != STONE:
+                continue
+            world = bed.core(scene, i) @ sc.rotation_matrix(bed.orientation[i]).T + bed.position[i]
+            low, high = world.min(axis=0) - bed.dilation[i], world.max(axis=0) + bed.dilation[i]
+            for centre in scene["sensors"]["centres"]:
+                if np.all(high > np.asarray(centre) - half) and np.all(low < np.asarray(centre) + half):
+                    keep[i] = False
+                    break
     bed.keep(keep)
     bed.velocity[:] = 0.0
     bed.angular_velocity[:] = 0.0
@@ -415,7 +419,7 @@ def prepare(p, path):
     trim(scene, bed, scene["first_trim"], True, log, "trim1")
     generate(scene, bed, rng, stages["layer2"]["z_high"], p, dt, log, "layer2")
     compaction2 = compact(scene, bed, p, dt, log, "compact2")
-    trim(scene, bed, sc.BED_HEIGHT, False, log, "trim2")
+    trim(scene, bed, scene["final_trim"], False, log, "trim2")
     stage = Stage(scene, bed, p, dt)
     settle(stage, p["trim_settle_s"], 0.0, log, "trim2")
     stage.finish()
@@ -431,7 +435,7 @@ def save(path, p, scene, bed, log, seat_height, time_step, plates):
     volume = sum(sc.stone_volume(scene, s, d) for s, d in zip(bed.shape[stones], bed.size[stones]))
     sensor_volume = np.sum(bed.kind == SENSOR) * math.prod(sc.SENSOR_SIZE)
     length, width, _ = scene["bed"]
-    porosity = 1.0 - (volume + sensor_volume) / (length * width * sc.BED_HEIGHT)
+    porosity = 1.0 - (volume + sensor_volume) / math.prod(scene["bed"])
     os.makedirs(os.path.dirname(path), exist_ok=True)
     temporary = f"{path}.{os.getpid()}.tmp"
     with h5py.File(temporary, "w") as f:

@@ -120,8 +120,10 @@ class SleeperOnBallast(Case):
             counts[name] = int(np.sum(chosen))
             mean = readings[chosen].mean(axis=0) / area / 1e3 if counts[name] else np.full(readings.shape[1], np.nan)
             pressures[name] = [float(v) for v in mean]
-        depth = sc.BED_HEIGHT - np.mean(series["sensor_height"][0]) - 0.5 * sc.SENSOR_SIZE[2]
-        depth_below_sleeper = bed["seat_height_m"] - (sc.BED_HEIGHT - depth)
+        # Depth of the sensors' top faces at the start, below the bed's trim height and below the sleeper's bottom.
+        sensor_top = float(np.mean(series["sensor_height"][0])) + 0.5 * sc.SENSOR_SIZE[2]
+        depth = p["bed_height_m"] - sensor_top
+        depth_below_sleeper = bed["seat_height_m"] - sensor_top
         estimates = {}
         for name, (_, level_name) in LEVELS.items():
             total = p[level_name] * 1e3 + weight

@@ -29,7 +29,6 @@ import ballast_clusters  # noqa: E402  (shape library, rotations, polyhedron mas
 
 # Ullrich 2022 Table 6.1 and Song et al. 2019 (fixed by the experiment, not parameters of the case).
 SEED_BED = (3.2, 1.0, 0.8)            # m, the box of the test
-BED_HEIGHT = 0.8                      # m, bed surface after the last trim
 SLEEPER_SIZE = (2.5, 0.2, 0.18)       # m, timber sleeper L x W x H
 RAIL_SEAT_OFFSET = 0.7175             # m from the sleeper centre: x = 0.8825 and 2.3175 m in the 3.2 m box
 RAIL_SEAT_SIZE = (0.15, 0.2)          # m, rail-seat patch (x, y)
@@ -134,7 +133,7 @@ def sample_sizes(gradation, rng, count):
 def seed_stone_count(p):
     """Stones of the seed's gradation (mean 0.04 m) that fill this bed at ASSUMED_POROSITY."""
     scene = _scene_with_scale(p, 1.0)
-    return (1.0 - ASSUMED_POROSITY) * scene["bed"][0] * scene["bed"][1] * BED_HEIGHT / mean_stone_volume(scene)
+    return (1.0 - ASSUMED_POROSITY) * math.prod(scene["bed"]) / mean_stone_volume(scene)
 
 
 def size_scale(p):
@@ -152,11 +151,12 @@ def _scene_with_scale(p, scale):
     length, width = p["bed_length_m"], p["bed_width_m"]
     gradation = {k: scale * p[f"stone_size_{k}_m"] for k in ("mean", "std", "min", "max")}
     centre = (0.5 * length, 0.5 * width)
-    sensor_top = BED_HEIGHT - p["sensor_depth_m"]
+    height = p["bed_height_m"]
+    sensor_top = height - p["sensor_depth_m"]
     sensors = [(centre[0] + (k - SENSOR_COUNT // 2) * SENSOR_SPACING, centre[1], sensor_top - 0.5 * SENSOR_SIZE[2])
                for k in range(SENSOR_COUNT)]
     return {
-        "bed": (length, width, BED_HEIGHT),
+        "bed": (length, width, height),
         "centre": centre,
         "gradation": gradation,
         "size_scale": scale,
@@ -171,7 +171,7 @@ def _scene_with_scale(p, scale):
                     "dilation": p["sensor_dilation_m"]},
         # Stage heights (Ullrich 2022 Fig. 6.4): the first layer is trimmed where the sensors' bottoms go.
         "first_trim": sensor_top - SENSOR_SIZE[2],
-        "final_trim": BED_HEIGHT,
+        "final_trim": height,
     }
 
 
@@ -194,7 +194,7 @@ def check(p):
                         f"at least {max(SLEEPER_SIZE[0], 2 * reach) + 0.1:.2f} m")
     if width < max(SLEEPER_SIZE[1], SENSOR_SIZE[1]) + 0.05:
         problems.append(f"bed_width_m={width:g}: the sleeper (0.2 m) and the sensors (0.22 m) need at least 0.27 m")
-    if p["sensor_depth_m"] + SENSOR_SIZE[2] > BED_HEIGHT - 0.1:
+    if p["sensor_depth_m"] + SENSOR_SIZE[2] > p["bed_height_m"] - 0.1:
         problems.append(f"sensor_depth_m={p['sensor_depth_m']:g}: the sensors must lie above 0.1 m of ballast")
     if not p["stone_size_min_m"] <= p["stone_size_mean_m"] <= p["stone_size_max_m"]:
         problems.append("stone sizes need stone_size_min_m <= stone_size_mean_m <= stone_size_max_m")
@@ -212,6 +212,14 @@ def layer_stones(scene, rng, z_low, z_high):
     sizes = sample_sizes(scene["gradation"], rng, max(1, int(round(volume / mean_stone_volume(scene)))))
     shapes = rng.integers(len(library()), size=len(sizes))
     return list(zip(shapes.tolist(), sizes.tolist()))
+
+
+def rotation_matrix(q):
+    """Rotation matrix of the quaternion (w, x, y, z) (body frame to world)."""
+    w, x, y, z = q
+    return np.array([[1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)],
+                     [2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)],
+                     [2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)]])
 
 
 def _quaternion_of(rotation):
@@ -324,10 +332,10 @@ def preparation_stages(p, scene):
         {"name": "trim1", "what": f"remove stones centred above {scene['first_trim']:.3f} m or inside a sensor; place "
                                   "the five sensors", "height": scene["first_trim"]},
         {"name": "layer2", "what": "generate the second layer on top and let it settle",
-         "z_high": BED_HEIGHT + surplus, "settle_s": p["settle_max_s"]},
+         "z_high": scene["final_trim"] + surplus, "settle_s": p["settle_max_s"]},
         {"name": "compact2", "what": "compact it with the plate", **compaction},
-        {"name": "trim2", "what": f"remove stones centred above {BED_HEIGHT:.3f} m and let the bed rest",
-         "height": BED_HEIGHT, "settle_s": p["trim_settle_s"]},
+        {"name": "trim2", "what": f"remove stones centred above {scene['final_trim']:.3f} m and let the bed rest",
+         "height": scene["final_trim"], "settle_s": p["trim_settle_s"]},
         {"name": "seat", "what": "lower a rigid plate of the sleeper's footprint onto the bed until it carries the "
                                  "sleeper's weight plus the seating load",
          "load_n": p["sleeper_density"] * math.prod(SLEEPER_SIZE) * GRAVITY + p["seating_load_N"]},
@@ -346,7 +354,7 @@ def design_contact_loads(p, scene, phase):
       run: the sleeper's largest speed, that of a bounce on the bed (taken as 0.5 m/s)."""
     if phase == "preparation":
         pressure = (1.0 + p["compaction_amplitude"]) * p["compaction_pressure_kPa"] * 1e3
-        speed = math.sqrt(2.0 * GRAVITY * 2.0 * BED_HEIGHT)
+        speed = math.sqrt(2.0 * GRAVITY * 2.0 * p["bed_height_m"])
     else:
         weight = p["sleeper_density"] * math.prod(SLEEPER_SIZE) * GRAVITY
         pressure = (p["peak_load_kN"] * 1e3 + weight) / (SLEEPER_SIZE[0] * SLEEPER_SIZE[1])
@@ -381,7 +389,7 @@ def pattern_phase_ends(pattern):
 # ---------------------------------------------------------------------------------------------------
 # The bed file: what defines a bed, and where it is kept
 # ---------------------------------------------------------------------------------------------------
-BED_PARAMETERS = ("bed_length_m", "bed_width_m", "sensor_depth_m", "particle_shape", "stones", "stone_size_mean_m",
+BED_PARAMETERS = ("bed_length_m", "bed_width_m", "bed_height_m", "sensor_depth_m", "particle_shape", "stones", "stone_size_mean_m",
                   "stone_size_std_m", "stone_size_min_m", "stone_size_max_m", "dilation_fraction", "particle_density",
                   "particle_young", "particle_poisson", "friction", "restitution", "sensor_dilation_m",
                   "compaction_pressure_kPa", "compaction_amplitude", "compaction_frequency_hz", "compaction_cycles",
@@ -407,9 +415,9 @@ def describe(p):
     """A few lines on the scene of p: sizes, expected stone count, stages, pattern duration."""
     scene = build(p)
     g = scene["gradation"]
-    count = (1.0 - ASSUMED_POROSITY) * scene["bed"][0] * scene["bed"][1] * BED_HEIGHT / mean_stone_volume(scene)
+    count = (1.0 - ASSUMED_POROSITY) * math.prod(scene["bed"]) / mean_stone_volume(scene)
     ends = pattern_phase_ends(scene["load_pattern"])
-    lines = [f"bed {scene['bed'][0]:g} x {scene['bed'][1]:g} x {BED_HEIGHT:g} m, stones: normal mean {g['mean']:.4f} m, "
+    lines = [f"bed {scene['bed'][0]:g} x {scene['bed'][1]:g} x {scene['bed'][2]:g} m, stones: normal mean {g['mean']:.4f} m, "
              f"std {g['std']:.4f} m in [{g['min']:.4f}, {g['max']:.4f}] (x{scene['size_scale']:.3f} of the seed's), "
              f"r_d = {scene['dilation_fraction']:g} x size; about {count:.0f} stones at porosity {ASSUMED_POROSITY:g} "
              f"(seed's sizes: {seed_stone_count(p):.0f})",

@@ -32,8 +32,9 @@ CHUNK_S = 0.01           # simulated time between settling checks and progress l
 # Plates (compaction, seating) are steered by a force servo once per batch (PlateServo).
 SERVO_BATCHES = 4             # time constant of the servo [batches]: a 20 Hz cycle spans 12 of them at 1e-5 s steps
 SERVO_TRAVEL = 0.01           # m: the softest bed assumed builds the target force over this travel
-PLATE_SPEED = 0.2             # m/s, fastest servo motion and lift-off
-APPROACH_SPEED = 0.5          # m/s, plate speed down to the first contact
+PLATE_SPEED = 0.5             # m/s, fastest servo motion and lift-off
+APPROACH_SPEED = 1.0          # m/s, plate speed down until it bears 5 % of its first target (stones hit at most
+                              # this much faster than they fall, below the time step's design impact speed)
 APPROACH_LIMIT = 0.5          # s: the pattern starts after this long even if the plate has not reached its first target
 
 
@@ -306,7 +307,9 @@ def drive_plate(stage, target, duration, log, name, settle_tolerance=None):
         if contact_time is None and (force >= target(0.0) or t > APPROACH_LIMIT):
             contact_time = t  # the pattern starts once the plate carries its first target (or took too long)
         if contact_time is None:
-            velocity = servo.velocity(height, force, target(0.0)) if force > 0 else -APPROACH_SPEED
+            # Down at APPROACH_SPEED through stones still falling or loose on top; the servo once the plate bears.
+            servo_velocity = servo.velocity(height, force, target(0.0))
+            velocity = servo_velocity if force > 0.05 * target(0.0) else -APPROACH_SPEED
             engine.setWallVelocity(plate, (0, 0, velocity))
             continue
         tau = t - contact_time

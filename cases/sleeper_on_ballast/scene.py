@@ -322,7 +322,7 @@ def sensor_core(scene):
 # ---------------------------------------------------------------------------------------------------
 def preparation_stages(p, scene):
     """The bed preparation as a list of stages {name, what, ...settings}; bed.py runs them in this order."""
-    surplus = 2.0 * scene["gradation"]["mean"]  # generated above each trim height, so that the trimmed layer is full
+    surplus = scene["gradation"]["mean"]  # generated above each trim height, so that the trimmed layer is full
     compaction = {"pressure_kpa": p["compaction_pressure_kPa"], "amplitude": p["compaction_amplitude"],
                   "frequency_hz": p["compaction_frequency_hz"], "cycles": p["compaction_cycles"]}
     return [

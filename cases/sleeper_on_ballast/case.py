@@ -156,6 +156,7 @@ class SleeperOnBallast(Case):
                         "max_sleeper_strain": float(np.max(strain)), "sensor_pressure_kPa": pressures,
                         "interface_force_at_hold_N": interface_hold, "applied_load_at_hold_N": applied_hold,
                         "stones": dem["stones"], "sensor_depth_m": float(depth),
+                        "sensor_depth_below_sleeper_m": float(depth_below_sleeper),
                         "sleeper_bottom_m": bed["seat_height_m"], "size_scale": bed["size_scale"],
                         "bed_porosity": bed["porosity"], "bed_reused": bed["reused"],
                         "dem_dt_s": dem["dt"], "critical_time_step_s": dem["critical_time_step_s"],

@@ -15,11 +15,20 @@ import scene as sc  # noqa: E402
 # The sensor readings reported at a load level: those taken while the applied load lies within this fraction of it
 # (on the ramp named; at the 50x default pace a ramp passes +-5 % of 44 kN in 2 ms, 4 readings of the 0.5 ms period).
 LOAD_BAND = 0.05
-# Momentum balance of the sleeper over the hold: the interface force must match load + weight within this fraction.
-# What may part them is the sleeper's inertia: the ramp's end excites the sleeper on the bed, whose inertial force
-# peaks at about P'/omega (P' the ramp rate, omega its bounce on the bed, 2 pi 133 Hz: 2.6 kN or 2 % of 132 kN at
-# the 50x pace, freefem_scripts/README.md "Sleeper"), and a hold of about one period averages it only partly.
-HOLD_BALANCE_TOLERANCE = 0.03
+# Momentum balance of the sleeper over the hold: the interface force must match load + weight. What may part them is
+# the sleeper's inertia: the ramp's end excites the sleeper on the bed, whose inertial force peaks at about P'/omega
+# (P' the ramp rate in simulated time, omega its bounce on the bed, 2 pi 133 Hz on a bed of 1e8 N/m^3,
+# freefem_scripts/README.md "Sleeper": 2.6 kN or 2 % of 132 kN at the 50x pace), and a hold of about one period
+# averages it only partly; the limit is 1.5 times that peak (the bed's stiffness is known to a factor of about 2,
+# omega to its square root).
+BOUNCE_FREQUENCY_HZ = 133.0
+HOLD_BALANCE_FACTOR = 1.5
+
+
+def hold_balance_tolerance(p, applied):
+    """Limit of |interface - (load + weight)| / (load + weight) over the hold (HOLD_BALANCE_FACTOR x P'/omega / it)."""
+    ramp_rate = p["ramp_rate_kN_s"] * 1e3 * p["time_scale"]
+    return HOLD_BALANCE_FACTOR * ramp_rate / (2.0 * math.pi * BOUNCE_FREQUENCY_HZ) / applied
 LEVELS = {"44kN_before": ("ramp1", "cyclic_max_kN"), "132kN_before": ("hold", "peak_load_kN"),
           "44kN_after": ("ramp2", "cyclic_max_kN"), "132kN_after": ("final", "peak_load_kN")}
 
@@ -143,7 +152,7 @@ class SleeperOnBallast(Case):
 
         checks = [
             {"name": "interface force over the hold vs load + sleeper weight (momentum balance)", "value": hold_error,
-             "limit": HOLD_BALANCE_TOLERANCE},
+             "limit": hold_balance_tolerance(p, applied_hold)},
             # The pattern is defined twice, in FreeFEM (the load) and here (the run's length, the reported levels).
             {"name": "load pattern phase times, FreeFEM vs scene.py (fraction of the pattern)", "value": pattern_error,
              "limit": 1e-9},

@@ -53,10 +53,19 @@ class SleeperOnBallast(Case):
             problems.append("particle_shape='cluster' is not available yet for this case (README, 'What is missing')")
         return problems
 
+    @staticmethod
+    def yade(p, script, *arguments):
+        """The case's YADE script on dem_threads OpenMP threads (the polyhedra CPU backend's stones)."""
+        return [os.path.join(solvers.root(), "railcosim"), "yade", f"-j{p['dem_threads']}",
+                os.path.join(p["case_dir"], script), *arguments]
+
     def preparation_runs(self, p, out):
         """The ballast bed (bed.py): prepared once per parameter set and kept; later runs reuse the file."""
-        return [("bed", [os.path.join(solvers.root(), "railcosim"), "yade", os.path.join(p["case_dir"], "bed.py"),
-                         os.path.join(out, "parameters.json"), out])]
+        return [("bed", self.yade(p, "bed.py", os.path.join(out, "parameters.json"), out))]
+
+    def dem_command(self, p, endpoint, out):
+        """dem.py on dem_threads threads."""
+        return self.yade(p, "dem.py", os.path.join(out, "parameters.json"), endpoint, out)
 
     @staticmethod
     def sleeper_options(p, seat_height):

@@ -48,7 +48,7 @@ import threading
 import time
 import traceback
 
-from railcosim import parameters
+from railcosim import parameters, snapshots
 from railcosim.case import CaseError, load_case
 from railcosim.parameters import ParameterError
 
@@ -504,6 +504,9 @@ class Run:
 
     def _postprocess(self):
         self.stage = "post-processing"
+        fields = snapshots.assemble(self.partial)  # ParaView's fields.xdmf, before the case reads the run
+        if fields:
+            self.summary["snapshots"] = fields
         self.summary.update(self.case.postprocess(self.params, self.partial))
         for check in self.summary.get("checks", []):
             check["passed"] = bool(check["value"] <= check["limit"])

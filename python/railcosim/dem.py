@@ -19,7 +19,7 @@ import json
 import sys
 import time
 
-from railcosim import results, solvers
+from railcosim import results, snapshots, solvers
 
 # Longest wait for any message of the FEM participant [s] (FemCouplingEngine.timeout): the FEM side's
 # factorisation of the largest case takes a few seconds, a lost peer is reported by the bridge sooner.
@@ -55,6 +55,7 @@ class CoupledDem:
             self.parameters = json.load(f)
         self.coupling = None
         self.recorder = None
+        self.snapshots = None
         self.windows = None
         self.time_origin = 0.0
         self.wall_time_s = None
@@ -107,11 +108,17 @@ class CoupledDem:
         coupling = self.coupling
         every = solvers.progress_period(self.parameters)
         self.recorder = results.DemRecorder(self.out)  # dem_timeseries.h5, written as the run goes
+        snapshot_every = snapshots.snapshot_windows(self.parameters)
+        polyhedra = [e for e in O.engines if isinstance(e, getattr(wrapper, "PolyhedraGpuEngine", ()))]
+        self.snapshots = (snapshots.DemSnapshots(self.out, coupling, polyhedra[0] if polyhedra else None)
+                          if snapshot_every else None)
         wall_start = time.monotonic()
 
         def record_window():
             self.recorder.append(time=self.time, **record(), interface_work_dem=coupling.interfaceWorkDem,
                                  interface_work_fem=coupling.interfaceWorkFem)
+            if self.snapshots and coupling.window % snapshot_every == 0:
+                self.snapshots.write(coupling.window // snapshot_every, self.time)
             if len(self.recorder) % every == 0:
                 figures = f"  {progress(self.recorder.last)}" if progress else ""
                 print(f"t={self.time:.4f} s  window {coupling.window}/{self.windows}{figures}  "
@@ -123,6 +130,8 @@ class CoupledDem:
                                                   initRun=False)]
         O.run(self.windows * coupling.subcycles + 1, True)
         coupling.finalize()
+        if self.snapshots:
+            self.snapshots.close()
         self.wall_time_s = time.monotonic() - wall_start
 
     def save(self, arrays=None, **info):

@@ -1,0 +1,8 @@
+#!/usr/bin/env bash
+# Runs the beam case's smoke run with 20 snapshots and checks its fields.xdmf in ParaView (check_fields.py).
+# usage: run_check.sh REPOSITORY OUT
+set -euo pipefail
+repo=$1 out=$2
+"$repo/railcosim" run "$repo/cases/beam_uniform_load" --smoke --force --set snapshot_every_s=0.02 --out "$out"
+cd "$out"  # xvfb-run and pvpython write nothing else; keep any stray file with the run
+xvfb-run -a pvpython "$repo/tests/paraview/check_fields.py" "$out" "$out/fields.png"

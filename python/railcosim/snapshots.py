@@ -222,6 +222,14 @@ def _grid(h5, path, name, topology, data, skip=("position", "triangles", "id")):
     return "".join(parts) + "</Grid>"
 
 
+def _consecutive_cells(kind, corners, data):
+    """Topology of cells whose corners are consecutive points (each wall triangle or box has its own)."""
+    n = len(data["position"]) // corners
+    indices = " ".join(str(i) for i in range(corners * n))
+    return (f'<Topology TopologyType="{kind}" NumberOfElements="{n}">'
+            f'<DataItem Dimensions="{n} {corners}" NumberType="Int" Format="XML">{indices}</DataItem></Topology>')
+
+
 def _xdmf(steps, h5, tetrahedra):
     """XDMF 3 text: a temporal collection whose every step is a spatial collection of the grids present."""
     lines = ['<?xml version="1.0" ?>', '<Xdmf Version="3.0">', "<Domain>",
@@ -245,18 +253,10 @@ def _xdmf(steps, h5, tetrahedra):
             topology = (f'<Topology TopologyType="Triangle" NumberOfElements="{len(triangles)}">'
                         f'{_item(h5, base + "/interface/triangles", triangles.shape, "Int")}</Topology>')
             lines.append(_grid(h5, base + "/interface", "interface", topology, step["interface"]))
-        if "walls" in step:
-            n = len(step["walls"]["position"]) // 3
-            lines.append(_grid(h5, base + "/walls", "walls",
-                               f'<Topology TopologyType="Triangle" NumberOfElements="{n}">'
-                               f'<DataItem Dimensions="{n} 3" NumberType="Int" Format="XML">'
-                               f'{" ".join(str(i) for i in range(3 * n))}</DataItem></Topology>', step["walls"]))
-        if "boxes" in step:
-            n = len(step["boxes"]["position"]) // 8
-            lines.append(_grid(h5, base + "/boxes", "boxes",
-                               f'<Topology TopologyType="Hexahedron" NumberOfElements="{n}">'
-                               f'<DataItem Dimensions="{n} 8" NumberType="Int" Format="XML">'
-                               f'{" ".join(str(i) for i in range(8 * n))}</DataItem></Topology>', step["boxes"]))
+        for grid, (kind, corners) in (("walls", ("Triangle", 3)), ("boxes", ("Hexahedron", 8))):
+            if grid in step:
+                lines.append(_grid(h5, f"{base}/{grid}", grid, _consecutive_cells(kind, corners, step[grid]),
+                                   step[grid]))
         lines.append("</Grid>")
     lines += ["</Grid>", "</Domain>", "</Xdmf>", ""]
     return "\n".join(lines)

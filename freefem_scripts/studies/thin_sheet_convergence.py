@@ -56,6 +56,8 @@ import numpy as np
 import scipy.linalg
 from numpy.polynomial import legendre
 
+from sleeper_convergence import freefem_environment
+
 REPO = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 SOLVER = os.path.join(REPO, "freefem_scripts", "solvers", "box_elastodynamics.edp")
 
@@ -214,13 +216,6 @@ def tip_probes(origin=(CLAMP_LENGTH, 0.0, 0.0)):
     """Tip points on the mid-surface: mid-width, and the two corners (bending vs torsion)."""
     x, z = origin[0] + SPAN, origin[2] + THICKNESS / 2
     return [(x, origin[1] + WIDTH / 2, z), (x, origin[1], z), (x, origin[1] + WIDTH, z)]
-
-
-def freefem_environment(plugin_dir):
-    env = dict(os.environ)
-    env["FF_LOADPATH"] = "/usr/lib/freefem++;" + plugin_dir
-    env["FF_INCLUDEPATH"] = "/usr/include/freefem++/idp;" + os.path.join(REPO, "freefem_scripts", "lib")
-    return env
 
 
 def run_solver(freefem, plugin_dir, arguments, out, timeout=1200):

@@ -485,10 +485,11 @@ def sleeper_load_pattern(args):
            and direct["time"][-1] > 22.6e-3, "the short run passes the peak, the cycles (low %.0f N) and ramp 2" % low)
 
 
-def main():
-    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    parser.add_argument("check", choices=["cantilever_static", "cantilever_vibration", "coupled_round_trip",
-                                          "sleeper_winkler", "sleeper_load_pattern"])
+def run_checks(description, checks, namespace, name):
+    """Command line of a checker (also tests/freefem/check_thin_sheet.py): runs the subcommand `check` (a function
+    of `namespace`) and returns the exit status from the failures `expect` collected."""
+    parser = argparse.ArgumentParser(description=description, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("check", choices=checks)
     parser.add_argument("--freefem", default="FreeFem++")
     parser.add_argument("--solver", required=True)
     parser.add_argument("--plugin-dir", required=True)
@@ -497,13 +498,18 @@ def main():
     parser.add_argument("--dem", default="")
     args = parser.parse_args()
     os.makedirs(args.work, exist_ok=True)
-    print("check_box_elastodynamics: " + args.check)
-    globals()[args.check](args)
+    print("%s: %s" % (name, args.check))
+    namespace[args.check](args)
     if failures:
         print("FAILED: %d check(s)" % len(failures))
         return 1
     print("PASSED")
     return 0
+
+
+def main():
+    return run_checks(__doc__, ["cantilever_static", "cantilever_vibration", "coupled_round_trip", "sleeper_winkler",
+                                "sleeper_load_pattern"], globals(), "check_box_elastodynamics")
 
 
 if __name__ == "__main__":

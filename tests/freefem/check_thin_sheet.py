@@ -17,56 +17,31 @@ Usage: check_thin_sheet.py SUBCOMMAND --freefem FreeFem++ --solver box_elastodyn
            --lib-dir DIR --work DIR [--dem railcosim_test_pressure_dem]
 """
 
-import argparse
-import csv
 import json
 import os
 import subprocess
 import sys
-import time
 
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "..", "freefem_scripts", "studies"))
 import thin_sheet_convergence as sheet  # noqa: E402
+import check_box_elastodynamics as box  # noqa: E402  (its solver runner; this folder is on sys.path)
 
-failures = []
-
-
-def expect(condition, message):
-    print(("  ok    " if condition else "  FAIL  ") + message)
-    if not condition:
-        failures.append(message)
+expect = box.expect  # one list of failures for run_checks
 
 
 def run_solver(args, name, parameters, background=None):
-    """Runs FreeFem++ on the solver; returns (summary, modes or None, monitor columns or None)."""
-    out = os.path.join(args.work, name)
-    env = dict(os.environ)
-    env["FF_LOADPATH"] = "/usr/lib/freefem++;" + args.plugin_dir
-    env["FF_INCLUDEPATH"] = "/usr/include/freefem++/idp;" + args.lib_dir
+    """Runs the solver with the tip probes (monitor: the first); returns (summary, modes or None, monitor or None)."""
     probes = sheet.tip_probes()
-    command = [args.freefem, "-nw", "-v", "0", args.solver] + [str(p) for p in parameters] + [
-        "-probes", ",".join("%r,%r,%r" % p for p in probes), "-monitor", "%r,%r,%r" % probes[0], "-out", out]
-    start = time.time()
-    result = subprocess.run(command, env=env, capture_output=True, text=True, timeout=90)
-    output = result.stdout + result.stderr
-    if background is not None:
-        dem_output, _ = background.communicate(timeout=30)
-        output += dem_output
-        if background.returncode != 0:
-            sys.exit("stand-in DEM failed (exit %d):\n%s" % (background.returncode, output[-4000:]))
-    print("  ran   %s in %.1f s" % (name, time.time() - start))
-    if result.returncode != 0:
-        sys.exit("FreeFem++ failed (exit %d) for %s:\n%s" % (result.returncode, name, output[-4000:]))
-    with open(os.path.join(out, "fem_summary.json")) as handle:
-        summary = json.load(handle)
+    summary, _ = box.run_solver(args, name, [str(p) for p in parameters] + [
+        "-probes", ",".join("%r,%r,%r" % p for p in probes), "-monitor", "%r,%r,%r" % probes[0]],
+        background=background)
+    out = os.path.join(args.work, name)
     modes, monitor = None, None
     if os.path.exists(os.path.join(out, "fem_modes.json")):
         with open(os.path.join(out, "fem_modes.json")) as handle:
             modes = json.load(handle)["modes"]
     if os.path.exists(os.path.join(out, "fem_monitor.csv")):
-        with open(os.path.join(out, "fem_monitor.csv")) as handle:
-            rows = list(csv.DictReader(handle))
-        monitor = {key: [float(row[key]) for row in rows] for key in rows[0]}
+        monitor = box.read_monitor(args, name)
     return summary, modes, monitor
 
 
@@ -154,10 +129,10 @@ def thin_sheet_dynamics(args):
         sys.exit("thin_sheet_dynamics needs --dem (the railcosim_test_pressure_dem executable)")
     _, modes, _ = run_solver(args, "plate_modal", ["-mode", "modal", "-modes", 4] + chosen_arguments())
     bending, _ = sheet.classify_modes(modes)
-    # 800 steps of 1e-4 s = 0.6 periods of f_1: enough for the fit (1e-5 with 800 steps or 1700).
+    # 500 steps of 1e-4 s = 0.4 periods of f_1: enough for the fit (measured 1e-5 with 500 to 1700 steps).
     common = ["-dt", sheet.DT, "-alphaB", sheet.ALPHA_BOSSAK, "-progressEvery", 0] + chosen_arguments()
     _, _, monitor = run_solver(args, "plate_release", ["-mode", "direct", "-release", 1, "-pressure", sheet.PRESSURE,
-                                                       "-steps", 800] + common)
+                                                       "-steps", 500] + common)
     frequency, amplitude, residual = sheet.fitted_frequency(monitor["time"], monitor["uz"], bending[0], bending[1:])
     error = frequency / bending[0] - 1
     print("  released tip: f_1 fitted %.6f Hz (with bending modes at %.3f and %.3f Hz; residual %.1e) vs modal "
@@ -172,7 +147,7 @@ def thin_sheet_dynamics(args):
     print("  energy: lost %.3e of the initial value, peak above it %.2e" % (loss, peak))
     # Bossak (gamma = 0.6, beta = 0.3025) is dissipative: spectral radius 0.82 for the through-thickness and membrane
     # modes that dt = 1e-4 s oversteps, damping ratio 2e-9 at f_1, so the release loses the small energy of the
-    # modes it excites above about 1 kHz (measured 2e-5 over 800 steps). Step to step the energy wiggles by a few
+    # modes it excites above about 1 kHz (measured 1e-5 over 500 steps). Step to step the energy wiggles by a few
     # 1e-6, as much as with alpha_B = 0, which conserves it exactly in exact arithmetic: the solve's round-off on
     # the thin solid's ill-conditioned effective matrix, amplified in a = (u_n+1 - u_predicted) / (beta dt^2) at
     # omega dt = 5e-3 (measured peak +5e-7 here, +3e-6 with alpha_B = 0 over 3500 steps).
@@ -202,23 +177,10 @@ def thin_sheet_dynamics(args):
 
 
 def main():
-    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    parser.add_argument("check", choices=["thin_sheet_strip", "thin_sheet_plate", "thin_sheet_dynamics"])
-    parser.add_argument("--freefem", required=True)
-    parser.add_argument("--solver", required=True)
-    parser.add_argument("--plugin-dir", required=True)
-    parser.add_argument("--lib-dir", required=True)
-    parser.add_argument("--work", required=True)
-    parser.add_argument("--dem", default="")
-    args = parser.parse_args()
-    os.makedirs(args.work, exist_ok=True)
-    print("check %s (mesh P%d %dx%dx%d, root graded: %s)" % (args.check, *sheet.CHOSEN))
-    globals()[args.check](args)
-    if failures:
-        print("%d check(s) failed" % len(failures))
-        sys.exit(1)
-    print("all checks passed")
+    print("mesh P%d %dx%dx%d, root graded: %s (thin_sheet_convergence.CHOSEN)" % sheet.CHOSEN)
+    return box.run_checks(__doc__, ["thin_sheet_strip", "thin_sheet_plate", "thin_sheet_dynamics"], globals(),
+                          "check_thin_sheet")
 
 
 if __name__ == "__main__":
-    main()
+    sys.exit(main())

@@ -49,15 +49,24 @@ def expect(condition, message):
         failures.append(message)
 
 
-def run_solver(args, name, parameters, expect_success=True, background=None):
-    """Runs FreeFem++ on the solver with `parameters`; returns (summary dict or None, output text)."""
+def run_solver(args, name, parameters, expect_success=True, background=None, start_background=None):
+    """Runs FreeFem++ on the solver with `parameters`; returns (summary dict or None, output text).
+    `background`: a process already started (the stand-in DEM) whose exit is awaited after FreeFem++'s;
+    `start_background`: a function starting it once FreeFem++ runs (returns the process), for a solver whose
+    set-up outlasts the peer's patience before the FEM side binds."""
     out = os.path.join(args.work, name)
     env = dict(os.environ)
     env["FF_LOADPATH"] = "/usr/lib/freefem++;" + args.plugin_dir
     env["FF_INCLUDEPATH"] = "/usr/include/freefem++/idp;" + args.lib_dir
     command = [args.freefem, "-nw", "-v", "0", args.solver] + [str(p) for p in parameters] + ["-out", out]
     start = time.time()
-    result = subprocess.run(command, env=env, capture_output=True, text=True, timeout=90)
+    if start_background is None:
+        result = subprocess.run(command, env=env, capture_output=True, text=True, timeout=90)
+    else:
+        solver = subprocess.Popen(command, env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+        background = start_background()
+        stdout, stderr = solver.communicate(timeout=90)
+        result = subprocess.CompletedProcess(command, solver.returncode, stdout, stderr)
     output = result.stdout + result.stderr
     if background is not None:
         dem_output, _ = background.communicate(timeout=30)

@@ -9,9 +9,10 @@ Subcommands (each one CTest test, label freefem):
                        first two bending frequencies (beta_n L)^2 / (2 pi L^2) sqrt(D / (rho t)) from the modal mode
   thin_sheet_plate     the real sheet with free long edges: tip deflection and the bending and torsion frequencies
                        vs the Kirchhoff plate (Rayleigh-Ritz), inside the beam/strip bracket
-  thin_sheet_dynamics  released from its static deflection, Newmark-Bossak at the rig's dt = 1e-4 s with
-                       alpha_B = -0.1 reproduces the modal f_1 and dissipates; a just-in-time coupled run with a
-                       uniform-pressure DEM stand-in on the top face reproduces the direct run
+  thin_sheet_release   released from its static deflection, Newmark-Bossak at the rig's dt = 1e-4 s with
+                       alpha_B = -0.1 reproduces the modal f_1 and dissipates
+  thin_sheet_coupled   a just-in-time coupled run with a uniform-pressure DEM stand-in on the top face reproduces
+                       the direct run
 
 Usage: check_thin_sheet.py SUBCOMMAND --freefem FreeFem++ --solver box_elastodynamics.edp --plugin-dir DIR
            --lib-dir DIR --work DIR [--dem railcosim_test_pressure_dem]
@@ -21,6 +22,7 @@ import json
 import os
 import subprocess
 import sys
+import time
 
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "..", "freefem_scripts", "studies"))
 import thin_sheet_convergence as sheet  # noqa: E402
@@ -29,12 +31,12 @@ import check_box_elastodynamics as box  # noqa: E402  (its solver runner; this f
 expect = box.expect  # one list of failures for run_checks
 
 
-def run_solver(args, name, parameters, background=None):
+def run_solver(args, name, parameters, start_background=None):
     """Runs the solver with the tip probes (monitor: the first); returns (summary, modes or None, monitor or None)."""
     probes = sheet.tip_probes()
     summary, _ = box.run_solver(args, name, [str(p) for p in parameters] + [
         "-probes", ",".join("%r,%r,%r" % p for p in probes), "-monitor", "%r,%r,%r" % probes[0]],
-        background=background)
+        start_background=start_background)
     out = os.path.join(args.work, name)
     modes, monitor = None, None
     if os.path.exists(os.path.join(out, "fem_modes.json")):
@@ -124,15 +126,16 @@ def thin_sheet_plate(args):
 
 
 # ------------------------------------------------------------------------------------------------
-def thin_sheet_dynamics(args):
-    if not args.dem:
-        sys.exit("thin_sheet_dynamics needs --dem (the railcosim_test_pressure_dem executable)")
+def bossak_arguments():
+    return ["-dt", sheet.DT, "-alphaB", sheet.ALPHA_BOSSAK, "-progressEvery", 0] + chosen_arguments()
+
+
+def thin_sheet_release(args):
     _, modes, _ = run_solver(args, "plate_modal", ["-mode", "modal", "-modes", 4] + chosen_arguments())
     bending, _ = sheet.classify_modes(modes)
     # 500 steps of 1e-4 s = 0.4 periods of f_1: enough for the fit (measured 1e-5 with 500 to 1700 steps).
-    common = ["-dt", sheet.DT, "-alphaB", sheet.ALPHA_BOSSAK, "-progressEvery", 0] + chosen_arguments()
     _, _, monitor = run_solver(args, "plate_release", ["-mode", "direct", "-release", 1, "-pressure", sheet.PRESSURE,
-                                                       "-steps", 500] + common)
+                                                       "-steps", 500] + bossak_arguments())
     frequency, amplitude, residual = sheet.fitted_frequency(monitor["time"], monitor["uz"], bending[0], bending[1:])
     error = frequency / bending[0] - 1
     print("  released tip: f_1 fitted %.6f Hz (with bending modes at %.3f and %.3f Hz; residual %.1e) vs modal "
@@ -154,18 +157,34 @@ def thin_sheet_dynamics(args):
     expect(loss > 0, "Bossak-Newmark dissipates the released sheet's energy (lost fraction %.2e)" % loss)
     expect(peak <= 1e-5, "Bossak-Newmark energy stays within 1e-5 of its initial value at most (peak %+.2e)" % peak)
 
+
+def thin_sheet_coupled(args):
     # Coupled over the bridge on the top face: the stand-in DEM sends the same uniform pressure every window.
+    if not args.dem:
+        sys.exit("thin_sheet_coupled needs --dem (the railcosim_test_pressure_dem executable)")
+    common = bossak_arguments()
     windows = 30
     direct, _, direct_monitor = run_solver(args, "plate_direct", ["-mode", "direct", "-pressure", sheet.PRESSURE,
                                                                   "-steps", windows] + common)
-    endpoint = "ipc://" + os.path.join(args.work, "thin_sheet.sock")
-    dem = subprocess.Popen([args.dem, "--endpoint", endpoint, "--pressure", repr(sheet.PRESSURE), "--windows",
-                            str(windows), "--scheme", "justInTime", "--area", repr(sheet.SPAN * sheet.WIDTH),
-                            "--normal", "0,0,1", "--timeout", "30"],
-                           stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+    socket = os.path.join(args.work, "thin_sheet.sock")
+    if os.path.exists(socket):
+        os.remove(socket)
+
+    def start_dem():
+        # The DEM side starts once the FEM side has bound the endpoint (the ipc socket file exists): the sheet's
+        # set-up (assembly, factorisation) takes seconds on a loaded machine, and a connecting side that has
+        # waited longer than three keepalive intervals when the connection opens reports the FEM as frozen.
+        deadline = time.time() + 60
+        while not os.path.exists(socket) and time.time() < deadline:
+            time.sleep(0.05)
+        return subprocess.Popen([args.dem, "--endpoint", "ipc://" + socket, "--pressure", repr(sheet.PRESSURE),
+                                 "--windows", str(windows), "--scheme", "justInTime",
+                                 "--area", repr(sheet.SPAN * sheet.WIDTH), "--normal", "0,0,1", "--timeout", "30"],
+                                stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+
     coupled, _, coupled_monitor = run_solver(args, "plate_coupled", ["-mode", "coupled", "-scheme", "justInTime",
-                                                                     "-endpoint", endpoint, "-timeout", 30] + common,
-                                             background=dem)
+                                                                     "-endpoint", "ipc://" + socket, "-timeout", 30]
+                                             + common, start_background=start_dem)
     expect(coupled["interfaceNodes"] == direct["interfaceNodes"] == (sheet.CHOSEN[1] + 1) * (sheet.CHOSEN[2] + 1),
            "the interface is the top face's vertex grid (%d nodes)" % coupled["interfaceNodes"])
     scale = max(abs(u) for u in direct_monitor["uz"])
@@ -178,7 +197,7 @@ def thin_sheet_dynamics(args):
 
 def main():
     print("mesh P%d %dx%dx%d, root graded: %s (thin_sheet_convergence.CHOSEN)" % sheet.CHOSEN)
-    return box.run_checks(__doc__, ["thin_sheet_strip", "thin_sheet_plate", "thin_sheet_dynamics"], globals(),
+    return box.run_checks(__doc__, ["thin_sheet_strip", "thin_sheet_plate", "thin_sheet_release", "thin_sheet_coupled"], globals(),
                           "check_thin_sheet")
 
 

@@ -15,14 +15,15 @@ Two problems, each with a reference that is exact for it:
           plate strip in plane strain. Tip deflection under a uniform pressure q and the bending frequencies
               w(L) = q L^4 / (8 D),  D = E t^3 / (12 (1 - nu^2)),
               f_n = (beta_n L)^2 / (2 pi L^2) sqrt(D / (rho t)),  beta_1 L = 1.8751, beta_2 L = 4.6941
-          (Timoshenko & Woinowsky-Krieger 1959, Theory of Plates and Shells, sec. 1-2; the cantilever roots of
-          cos(bL) cosh(bL) = -1). Shear deformation and rotary inertia change them by (t/L)^2 terms: 8e-6 for the
+          (Timoshenko & Woinowsky-Krieger 1959, Theory of Plates and Shells, ch. 1: a beam of stiffness D; the
+          cantilever roots of cos(bL) cosh(bL) = -1, Blevins 1979, Formulas for Natural Frequency and Mode Shape).
+          Shear deformation and rotary inertia change them by (t/L)^2 terms: 8e-6 for the
           deflection (Timoshenko shear part 2 / (3 kappa (1 - nu)) (t/L)^2), below 1e-4 for f_2.
   plate   the real sheet, free long edges (CFFF in Leissa's notation). Reference: the Kirchhoff plate solved here by
           the Rayleigh-Ritz method with Legendre polynomials (w = xi^2 P_i(2 xi - 1) P_j(2 eta - 1), xi = x/L,
           eta = y/b; exact Gauss quadrature; bending and torsion modes from the symmetric and antisymmetric
           y-families). Every Ritz value is an upper bound of the exact plate frequency. For the square CFFF plate
-          (nu = 0.3) Leissa (1969, NASA SP-160, sec. 4.3.15; 1973, J. Sound Vib. 31:257) tabulates
+          (nu = 0.3) Leissa (1969, NASA SP-160; 1973, J. Sound Vib. 31:257) tabulates
           lambda = omega a^2 sqrt(rho t / D) = 3.4917, 8.5246, 21.429, 27.331, 31.111 from a 36-term beam-function
           Ritz series; this series gives 3.4710, 8.5063, 21.284, 27.199, 30.955 (printed by the study), all lower by
           0.2-0.6 %, i.e. closer to the exact values. It is evaluated at the sheet's own aspect ratio L/b = 2.8
@@ -128,7 +129,7 @@ def kirchhoff_cantilever_plate(aspect, poisson_ratio=POISSON_RATIO, terms=20, mo
     """Rayleigh-Ritz solution of the Kirchhoff plate clamped at x = 0, free elsewhere (CFFF), length L along x,
     width b = L / aspect. Energy (nondimensional, xi = x/L, eta = y/b, r = L/b):
         U = int w_xixi^2 + r^4 w_etaeta^2 + 2 nu r^2 w_xixi w_etaeta + 2 (1 - nu) r^2 w_xieta^2,  T = lambda^2 int w^2
-    (Leissa 1969, eq. 1.12). Returns {"bending": [lambda...], "torsion": [lambda...], "tipCentre": w(L, b/2),
+    (Leissa 1969, ch. 1). Returns {"bending": [lambda...], "torsion": [lambda...], "tipCentre": w(L, b/2),
     "tipEdge": w(L, 0), "tipMean": mean of w(L, y)} with deflections in units of q L^4 / D."""
     gauss_points, gauss_weights = legendre.leggauss(60)   # exact for the products of degree <= 2 (terms + 1)
     points, weights = (gauss_points + 1) / 2, gauss_weights / 2
@@ -170,7 +171,7 @@ def plate_reference(pressure=PRESSURE):
 def bossak_amplification(omega_dt, alpha=ALPHA_BOSSAK):
     """Spectral radius, damping ratio and relative period error of one Bossak-Newmark step (gamma = 1/2 - alpha,
     beta = (1 - alpha)^2 / 4) on u'' + omega^2 u = 0, from the amplification matrix of the recurrence of
-    lib/newmark.idp (Wood, Bossak & Zienkiewicz 1980; Hughes 1987, The Finite Element Method, sec. 9.3)."""
+    lib/newmark.idp (Wood, Bossak & Zienkiewicz 1980; Hughes 1987, The Finite Element Method, ch. 9)."""
     gamma, beta = 0.5 - alpha, 0.25 * (1 - alpha) ** 2
     columns = []
     for state in np.eye(3):  # (u, v dt, a dt^2) with omega dt = omega_dt, dt = 1

@@ -331,6 +331,23 @@ BOOST_AUTO_TEST_CASE(silent_peer_times_out_with_advice) {
   BOOST_TEST(waited < 2.0);
 }
 
+BOOST_AUTO_TEST_CASE(a_peer_that_binds_late_is_not_taken_for_a_frozen_one) {
+  // The connecting side waits before the binding side exists (a FEM solver still assembling): silence counts
+  // from the connection's handshake, not from the start of the wait, so a peer that binds after more than
+  // three keepalive intervals and then speaks at once is heard.
+  const std::string endpoint = uniqueEndpoint();
+  com::Channel waiting(com::ChannelOptions{endpoint, com::Side::Connect, 0.2, 1000, 0.05});
+  auto received = std::async(std::launch::async, [&] {
+    com::Frame frame;
+    com::Timing timing;
+    return waiting.receive(frame, 5.0, timing);
+  });
+  std::this_thread::sleep_for(std::chrono::milliseconds(1000)); // 5 keepalive intervals of silence
+  FakePeer late(endpoint, com::Side::Bind);
+  late.sendHello(protocol::Role::Fem, "late-fem");
+  BOOST_TEST(static_cast<int>(received.get()) == static_cast<int>(com::Status::Ok));
+}
+
 BOOST_AUTO_TEST_CASE(non_finite_values_are_refused_before_sending) {
   const std::string endpoint = uniqueEndpoint();
   const InterfaceMesh mesh = square();

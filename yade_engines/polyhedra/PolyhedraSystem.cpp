@@ -653,10 +653,14 @@ void PolyhedraSystem::step(int steps) {
   m.hostCurrent = m.active == Backend::Cpu;
   if (counters.values[counterPairOverflow] > 0 || counters.values[counterWallOverflow] > 0) {
     std::ostringstream message;
-    message << "neighbour list overflow: a stone had " << counters.values[counterPairOverflow]
-            << " stone candidates (maxNeighbours = " << d.maxPairs << ") or " << counters.values[counterWallOverflow]
-            << " wall candidates (maxWallNeighbours = " << d.maxWalls
-            << "); contacts were lost, the state is invalid. Raise the limit or lower neighbourSkin";
+    message << "neighbour list overflow:";
+    if (counters.values[counterPairOverflow] > 0)
+      message << " a stone had " << counters.values[counterPairOverflow] << " stone candidates (maxNeighbours = "
+              << d.maxPairs << ")";
+    if (counters.values[counterWallOverflow] > 0)
+      message << " a stone had " << counters.values[counterWallOverflow] << " wall candidates (maxWallNeighbours = "
+              << d.maxWalls << ")";
+    message << "; contacts were lost, the state is invalid. Raise the limit or lower neighbourSkin";
     fail("step", message.str());
   }
   m.statistics = StepStatistics{};

@@ -146,6 +146,7 @@ void PolyhedraGpuEngine::initialize() {
   parameters.stone = polyhedraMaterial(*stoneMaterial, "the stones' material", restitution);
   parameters.wall = parameters.stone;
   parameters.rebuildInterval = rebuildInterval;
+  parameters.neighbourSkin = neighbourSkin;
   parameters.adaptiveRebuild = adaptiveRebuild;
   parameters.maxNeighbours = maxNeighbours;
   parameters.maxWallNeighbours = maxWallNeighbours;

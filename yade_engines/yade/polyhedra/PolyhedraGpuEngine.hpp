@@ -90,6 +90,7 @@ public:
 		((Vector3r, gravity, Vector3r(0, 0, -9.81), , "Gravity acceleration [m/s^2]."))
 		((string, backend, "automatic", , "``automatic`` (GPU when usable, else CPU), ``cpu`` or ``cuda``."))
 		((int, rebuildInterval, 10, , "Steps between neighbour-list rebuilds (each batch starts with one)."))
+		((Real, neighbourSkin, -1, , "Verlet skin of the neighbour lists [m]; < 0: a fifth of the mean dilation radius. Over one rebuild interval no two stones may close more than half of it (a warning reports it): fast stones need a larger skin or a shorter interval."))
 		((bool, adaptiveRebuild, true, , "Skip a due rebuild while no stone can outgrow the lists: largest displacement since the last rebuild plus twice the fastest stone's travel over the next interval below half the skin. Never skipped while the surface moves."))
 		((int, maxNeighbours, 24, , "Candidate partner stones stored per stone [-] (raise it if a step reports an overflow)."))
 		((int, maxWallNeighbours, 8, , "Candidate wall or surface triangles stored per stone [-]."))

@@ -207,6 +207,20 @@ struct StateHeader {
 };
 } // namespace
 
+Material materialOf(const kernels::ContactMaterial& m) {
+  Material result;
+  result.youngModulus = m.youngModulus;
+  result.poissonRatio = m.poissonRatio;
+  result.restitution = m.restitution;
+  result.friction = m.frictionCoefficient;
+  result.roughnessRms = m.roughnessRms;
+  result.fractalDimension = m.fractalDimension;
+  result.plasticUnloading = m.plasticUnloading;
+  result.frictionExponent = m.frictionExponent;
+  result.maxContactStress = m.maxContactStress;
+  return result;
+}
+
 const char* backendName(Backend backend) {
   switch (backend) {
     case Backend::Automatic:

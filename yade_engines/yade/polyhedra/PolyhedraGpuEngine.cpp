@@ -42,16 +42,13 @@ poly::Material polyhedraMaterial(const Material& material, const std::string& ow
   railcosim::kernels::ContactMaterial m = contactMaterialOf(material, "PolyhedraGpuEngine: " + owner);
   if (!dynamic_cast<const BallastMat*>(&material)) m.restitution = restitution;
   railcosim::kernels::validate(m, "PolyhedraGpuEngine: " + owner);
-  poly::Material result;
-  result.youngModulus = m.youngModulus;
-  result.poissonRatio = m.poissonRatio;
-  result.restitution = m.restitution;
-  result.friction = m.frictionCoefficient;
-  result.roughnessRms = m.roughnessRms;
-  result.fractalDimension = m.fractalDimension;
-  result.plasticUnloading = m.plasticUnloading;
-  result.frictionExponent = m.frictionExponent;
-  result.maxContactStress = m.maxContactStress;
+  return poly::materialOf(m);
+}
+
+// {body id: the stone's 3 values of `perStone`} for Python.
+boost::python::dict byBodyId(const std::vector<Body::id_t>& ids, const std::vector<double>& perStone) {
+  boost::python::dict result;
+  for (size_t i = 0; i < ids.size(); ++i) result[ids[i]] = toVector3r(&perStone[3 * i]);
   return result;
 }
 } // namespace
@@ -328,18 +325,12 @@ boost::python::list PolyhedraGpuEngine::contactsPy() {
 
 boost::python::dict PolyhedraGpuEngine::stoneForcesPy() {
   requireSystem("stoneForces");
-  boost::python::dict result;
-  const std::vector<double> f = system->forces();
-  for (size_t i = 0; i < stoneIds.size(); ++i) result[stoneIds[i]] = toVector3r(&f[3 * i]);
-  return result;
+  return byBodyId(stoneIds, system->forces());
 }
 
 boost::python::dict PolyhedraGpuEngine::stoneTorquesPy() {
   requireSystem("stoneTorques");
-  boost::python::dict result;
-  const std::vector<double> t = system->torques();
-  for (size_t i = 0; i < stoneIds.size(); ++i) result[stoneIds[i]] = toVector3r(&t[3 * i]);
-  return result;
+  return byBodyId(stoneIds, system->torques());
 }
 
 void PolyhedraGpuEngine::writeStatePy(const std::string& path) {

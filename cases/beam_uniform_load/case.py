@@ -27,10 +27,26 @@ def closed_form_deflection(p):
     return w * length ** 4 / (384.0 * young * inertia) + w * length ** 2 / (8.0 * kappa * shear_modulus * b * h)
 
 
+PARTICLE_NAMES = {"sphere": "spheres", "cluster": "sphere clusters", "polyhedron": "dilated polyhedra"}
+# The surface contact models each particle shape can use ("auto" picks the first).
+CONTACT_MODELS = {"sphere": ("facets", "meshContacts", "hierarchy"), "cluster": ("meshContacts", "hierarchy", "facets"),
+                  "polyhedron": ("polyhedra",)}
+
+
 class BeamUniformLoad(Case):
+    def check_parameters(self, p):
+        """The contact model must suit the particle shape: polyhedra touch the beam only through their own engine."""
+        usable = CONTACT_MODELS[p["particle_shape"]]
+        if p["contact_model"] not in ("auto",) + usable:
+            return [f"contact_model={p['contact_model']!r} does not work with particle_shape={p['particle_shape']!r}; "
+                    f"use 'auto' or one of {', '.join(repr(m) for m in usable)}"]
+        return []
+
     def fem_arguments(self, p):
-        """A clamped-clamped beam (faces x = 0 and x = L), coupled on its top face, monitored on its axis at mid-span."""
-        return {"Lx": p["beam_length"], "Ly": p["beam_width"], "Lz": p["beam_height"], "nx": p["elements_x"],
+        """A clamped-clamped beam (faces x = 0 and x = L), coupled on its top face, monitored on its axis at mid-span.
+        Stones that settle before the coupled run (deposition_s) keep the FEM waiting for the handshake longer."""
+        waiting = {"timeout": 3600.0} if p["particle_shape"] != "sphere" and p["deposition_s"] > 0 else {}
+        return {**waiting, "Lx": p["beam_length"], "Ly": p["beam_width"], "Lz": p["beam_height"], "nx": p["elements_x"],
                 "ny": p["elements_y"], "nz": p["elements_z"], "order": p["element_order"], "E": p["beam_young"],
                 "nu": p["beam_poisson"], "rho": p["beam_density"], "rayleighMass": p["rayleigh_mass"],
                 "clamped": "2,4", "coupled": 6,
@@ -68,7 +84,8 @@ class BeamUniformLoad(Case):
         })
         results.plot_history(
             os.path.join(out, "deflection.png"),
-            title=f"Clamped beam under {dem['total_particle_mass_kg']:.1f} kg of spheres",
+            title=f"Clamped beam under {dem['total_particle_mass_kg']:.1f} kg of "
+                  f"{PARTICLE_NAMES[p['particle_shape']]}",
             panels=[
                 {"x": monitor["time"], "y": [-u * 1e6 for u in monitor["uz"]], "label": "coupled FEM (beam axis, mid-span)",
                  "ylabel": "deflection [µm]",

@@ -126,8 +126,9 @@ class CoupledDem:
 
         import __main__
         setattr(__main__, WINDOW_CALLBACK, record_window)
+        # Counted from now: a scene that ran before connecting (a deposition, say) would fire it at once otherwise.
         O.engines = O.engines + [wrapper.PyRunner(command=f"{WINDOW_CALLBACK}()", iterPeriod=coupling.subcycles,
-                                                  initRun=False)]
+                                                  initRun=False, iterLast=O.iter)]
         O.run(self.windows * coupling.subcycles + 1, True)
         coupling.finalize()
         if self.snapshots:

@@ -17,8 +17,9 @@ OTHER_KEYS = ("name", "expected_wall_s", "limits", "smoke")
 SHARED_DEFAULTS = {
     "coupling": {
         "average_forces": False,        # True: send the window average of the nodal forces (impulse-conserving)
-        "contact_model": "facets",      # "facets" (YADE facets, the scene's contact law) or "meshContacts"
-                                        # (the engine's facet > edge > vertex contacts, Hertz-Mindlin)
+        "contact_model": "facets",      # "facets" (YADE facets, the scene's contact law), "meshContacts"
+                                        # (the engine's facet > edge > vertex contacts, Hertz-Mindlin) or
+                                        # "polyhedra" (the surface joins a PolyhedraGpuEngine's walls)
         "implicit_tolerance": 1.0e-3,   # implicit scheme: rms position residual / rms interface displacement
         "implicit_max_iterations": 30,  # implicit scheme: passes per window before it is accepted unconverged
         "implicit_relaxation": 0.5,     # implicit scheme: first relaxation factor of a window
@@ -46,7 +47,7 @@ SHARED_LIMITS = {
     "dem_dt_safety": {"min_exclusive": 0, "max": 1, "force": "force_dem_dt"},
     "scheme": {"choices": ["justInTime", "predictive", "implicit"]},
     # "hierarchy": the former name of "meshContacts", still accepted.
-    "contact_model": {"choices": ["facets", "meshContacts", "hierarchy"]},
+    "contact_model": {"choices": ["facets", "meshContacts", "hierarchy", "polyhedra"]},
     "restitution": {"min_exclusive": 0, "max": 1},  # 0 would make the Hertz-Mindlin damping log(0)
     "friction": {"min": 0},
     "local_damping": {"min": 0, "max_exclusive": 1},

@@ -22,6 +22,7 @@ struct HostData {
   std::vector<double> shapeVertices;
   std::vector<double> nodePosition, nodeVelocity;
   std::vector<std::int32_t> triangles;
+  std::vector<std::int32_t> triangleMaterial; // index into wallLaws per triangle; empty: every triangle wallLaws[0]
   std::vector<double> triangleForceSum, trianglePointSum, triangleWeightSum;
   int maxPairs = 0, maxWalls = 0;
   std::vector<ContactSlot> pairSlots, pairSlotsPrevious, wallSlots, wallSlotsPrevious;
@@ -41,7 +42,9 @@ struct HostData {
   double featureTolerance = 0.0;
   int rebuildInterval = 10;
   bool adaptiveRebuild = true; // skip a due rebuild while no stone can outgrow the lists (Parameters)
-  kernels::ContactLaw stoneLaw{}, wallLaw{};
+  kernels::ContactLaw stoneLaw{};
+  kernels::ContactLaw wallLaws[maxWallMaterials] = {}; // stone against wall material k (setWallMaterials)
+  int wallLawCount = 1;
   unsigned long long counters[counterCount] = {};
   bool forcesValid = false; // force/torque hold the contact forces of the current state
 
@@ -59,7 +62,37 @@ struct HostData {
   void allocate();
   // View on the current lists (pairSlots) with `previous*` as the lists of the last rebuild.
   SystemView view();
+  // Whether any wall law keeps a normal history (then every wall slot has one beside it).
+  bool wallNormalHistoryKept() const;
 };
+
+// The arrays that hold the dynamic state between two step calls (PolyhedraSystem's snapshots and state
+// streams), in a fixed order. Not listed, as every step call rebuilds them before reading them: the lists of the
+// previous rebuild (`*Previous`: the call's first rebuild swaps the current lists into them and builds anew from
+// them), the grid (cell keys, buckets) and the narrow-phase scratch (wallGeometry), the counters.
+// Calls `visit(name, array)` for each, in that order.
+template <class Data, class Visitor>
+void visitStateArrays(Data& d, Visitor&& visit) {
+  visit("position", d.position);
+  visit("velocity", d.velocity);
+  visit("rotation", d.rotation);
+  visit("force", d.force);
+  visit("torque", d.torque);
+  visit("referencePosition", d.referencePosition);
+  visit("nodePosition", d.nodePosition);
+  visit("nodeVelocity", d.nodeVelocity);
+  visit("triangleForceSum", d.triangleForceSum);
+  visit("trianglePointSum", d.trianglePointSum);
+  visit("triangleWeightSum", d.triangleWeightSum);
+  visit("pairSlots", d.pairSlots);
+  visit("pairCount", d.pairCount);
+  visit("pairNormalHistory", d.pairNormalHistory);
+  visit("pairOutput", d.pairOutput);
+  visit("wallSlots", d.wallSlots);
+  visit("wallCount", d.wallCount);
+  visit("wallNormalHistory", d.wallNormalHistory);
+  visit("wallOutput", d.wallOutput);
+}
 
 // What a step call reports back to the facade.
 struct BackendCounters {
@@ -79,6 +112,10 @@ public:
   virtual void parametersChanged() {}
   // Brings stones, contact lists and surface outputs back into `data` (no-op for the CPU).
   virtual void download(HostData& data) = 0;
+  // One in-memory copy of the state arrays (visitStateArrays) where they live: the host arrays for the CPU, device
+  // buffers for CUDA (no transfer). restoreSnapshot puts it back and keeps it.
+  virtual void saveSnapshot(HostData& data) = 0;
+  virtual void restoreSnapshot(HostData& data) = 0;
 };
 
 std::unique_ptr<PolyhedraBackend> makeCpuBackend();

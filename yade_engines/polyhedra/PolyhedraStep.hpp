@@ -10,6 +10,7 @@
 #include "railcosim/HostDevice.hpp"
 #include "railcosim/TriangleGeometry.hpp"
 #include "polyhedra/PolyhedraGeometry.hpp"
+#include "polyhedra/PolyhedraSystem.hpp"
 
 #if defined(__CUDA_ARCH__)
 #define RAILCOSIM_POLYHEDRA_DEVICE_PASS 1
@@ -95,6 +96,7 @@ struct SystemView {
   double* nodePosition;
   const double* nodeVelocity;
   const std::int32_t* triangles;
+  const std::int32_t* triangleMaterial; // wall law index per triangle; null: wallLaws[0] for every triangle
   double* triangleForceSum;  // Σ over contacts and steps of the force on the triangle
   double* trianglePointSum;  // Σ |F| x_c
   double* triangleWeightSum; // Σ |F|
@@ -128,10 +130,10 @@ struct SystemView {
   // records them in the last step of each graph chunk (48 scattered bytes per contact and step saved in
   // the others); the CPU reference in every step.
   bool recordOutput;
-  // The contact law of stone pairs and of stone–wall contacts (kernels/ContactLaw.hpp: sub-models selected by keyword,
-  // materials mixed); R* and m* are set per contact.
+  // The contact law of stone pairs and of stone–wall contacts per wall material (kernels/ContactLaw.hpp: sub-models
+  // selected by keyword, materials mixed); R* and m* are set per contact.
   kernels::ContactLaw stoneLaw;
-  kernels::ContactLaw wallLaw;
+  kernels::ContactLaw wallLaws[maxWallMaterials];
   unsigned long long* counters;
 };
 
@@ -770,7 +772,8 @@ RAILCOSIM_HOST_DEVICE inline int stoneWallForces(const SystemView& s, int i) {
     const ContactKinematics kinematicsA{load3(s.velocity, i), s.rotation[i].angularVelocity, xA};
     const ContactKinematics kinematicsB{velocity, Vec3{0.0, 0.0, 0.0}, nearest};
     // A duplicate keeps its tangential spring up to date too (it takes over when its twin separates).
-    const Vec3 force = contactForce(g, shapeA.dilationRadius, shapeA.mass, s.wallLaw, kinematicsA, kinematicsB,
+    const kernels::ContactLaw& wallLaw = s.wallLaws[s.triangleMaterial ? s.triangleMaterial[partner] : 0];
+    const Vec3 force = contactForce(g, shapeA.dilationRadius, shapeA.mass, wallLaw, kinematicsA, kinematicsB,
                                     s.timeStep, slot, s.wallNormalHistory ? s.wallNormalHistory + index : nullptr);
     bool duplicate = false;
     for (int m = 0; m < acceptedCount; ++m) {

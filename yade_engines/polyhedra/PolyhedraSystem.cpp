@@ -3,8 +3,12 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstring>
+#include <istream>
 #include <map>
+#include <ostream>
 #include <sstream>
+#include <type_traits>
 #include <utility>
 
 #include <Eigen/Eigenvalues>
@@ -154,7 +158,68 @@ kernels::ContactLaw lawOf(const Material& a, const Material& b, bool betweenSton
   }
 }
 
+
+// State streams (writeState/readState): a magic tag and a format version, raised whenever the layout of the stream
+// or of a record it holds changes; the record sizes are written too, so that a changed struct is caught even if
+// the version was not raised.
+constexpr char stateMagic[8] = {'R', 'C', 'P', 'O', 'L', 'Y', 'S', 'T'};
+constexpr std::uint32_t stateVersion = 1;
+
+template <class T>
+void writeValue(std::ostream& out, const T& value) {
+  static_assert(std::is_trivially_copyable_v<T>, "state records are written as bytes");
+  out.write(reinterpret_cast<const char*>(&value), sizeof(T));
+}
+
+template <class T>
+void writeArray(std::ostream& out, const std::vector<T>& array) {
+  static_assert(std::is_trivially_copyable_v<T>, "state records are written as bytes");
+  writeValue<std::uint64_t>(out, array.size());
+  if (!array.empty())
+    out.write(reinterpret_cast<const char*>(array.data()), static_cast<std::streamsize>(array.size() * sizeof(T)));
+}
+
+template <class T>
+T readValue(std::istream& in, const std::string& what) {
+  T value{};
+  in.read(reinterpret_cast<char*>(&value), sizeof(T));
+  if (!in) fail("readState", "the stream ends inside " + what + " (truncated or not a polyhedra state)");
+  return value;
+}
+
+// Reads an array written by writeArray; its length must be `expected`.
+template <class T>
+std::vector<T> readArray(std::istream& in, std::size_t expected, const std::string& what) {
+  const std::uint64_t count = readValue<std::uint64_t>(in, "the length of " + what);
+  if (count != expected)
+    fail("readState", what + " holds " + std::to_string(count) + " records in the stream, this system has " +
+                          std::to_string(expected) + "; the state was written by a system built differently");
+  std::vector<T> array(count);
+  if (count > 0) in.read(reinterpret_cast<char*>(array.data()), static_cast<std::streamsize>(count * sizeof(T)));
+  if (!in) fail("readState", "the stream ends inside " + what + " (truncated)");
+  return array;
+}
+
+// The counts and record sizes the stream header states; a reader compares its own with them, field by field.
+struct StateHeader {
+  const char* name;
+  std::uint64_t value;
+};
 } // namespace
+
+Material materialOf(const kernels::ContactMaterial& m) {
+  Material result;
+  result.youngModulus = m.youngModulus;
+  result.poissonRatio = m.poissonRatio;
+  result.restitution = m.restitution;
+  result.friction = m.frictionCoefficient;
+  result.roughnessRms = m.roughnessRms;
+  result.fractalDimension = m.fractalDimension;
+  result.plasticUnloading = m.plasticUnloading;
+  result.frictionExponent = m.frictionExponent;
+  result.maxContactStress = m.maxContactStress;
+  return result;
+}
 
 const char* backendName(Backend backend) {
   switch (backend) {
@@ -185,6 +250,16 @@ struct PolyhedraSystem::Implementation {
   // Storage order (set at the first step): stone k of the arrays is the user's stone userOf[k]; empty
   // before the first step, when the arrays are in the user's (addStone) order.
   std::vector<std::int32_t> userOf, storedOf;
+  // What saveSnapshot keeps beside the backend's copy of the state arrays: the facade's own state, and the host's
+  // surface velocities (read on the host by the rebuild decision; the CUDA backend never downloads them).
+  struct Snapshot {
+    bool saved = false;
+    double time = 0.0;
+    int lastSteps = 0;
+    bool forcesValid = false;
+    StepStatistics statistics;
+    std::vector<double> nodePosition, nodeVelocity;
+  } snapshot;
 
   std::size_t stored(std::size_t user) const {
     return storedOf.empty() ? user : static_cast<std::size_t>(storedOf[user]);
@@ -198,7 +273,10 @@ struct PolyhedraSystem::Implementation {
     return scattered(values, width, userOf.size(), [&](std::size_t k) { return user(k); });
   }
   void storeInSpatialOrder();
+  void storeInOrder(const std::vector<std::int32_t>& order);
   void restoreUserOrder();
+  // Everything the first step does before stepping (checks, skin, grid, spatial order, arrays, upload).
+  void start();
   // Per-stone arrays that exist before the first step, permuted by storeInSpatialOrder.
   // Moves the values of stone k to stone target(k).
   template <typename Target>
@@ -252,12 +330,17 @@ void PolyhedraSystem::Implementation::storeInSpatialOrder() {
     keyed[i] = {key, static_cast<std::int32_t>(i)};
   }
   std::stable_sort(keyed.begin(), keyed.end(), [](const auto& a, const auto& b) { return a.first < b.first; });
-  userOf.resize(n);
+  std::vector<std::int32_t> order(n);
+  for (std::size_t k = 0; k < n; ++k) order[k] = keyed[k].second;
+  storeInOrder(order);
+}
+
+// Stores the stones (still in the user's order) so that stone k of the arrays is the user's stone order[k].
+void PolyhedraSystem::Implementation::storeInOrder(const std::vector<std::int32_t>& order) {
+  const std::size_t n = order.size();
+  userOf = order;
   storedOf.resize(n);
-  for (std::size_t k = 0; k < n; ++k) {
-    userOf[k] = keyed[k].second;
-    storedOf[keyed[k].second] = static_cast<std::int32_t>(k);
-  }
+  for (std::size_t k = 0; k < n; ++k) storedOf[order[k]] = static_cast<std::int32_t>(k);
   permuteStones([&](std::size_t k) { return stored(k); });
 }
 
@@ -268,6 +351,37 @@ void PolyhedraSystem::Implementation::restoreUserOrder() {
   permuteStones([&](std::size_t k) { return user(k); });
   userOf.clear();
   storedOf.clear();
+}
+
+void PolyhedraSystem::Implementation::start() {
+  if (started) return;
+  HostData& d = data;
+  if (d.stoneCount == 0) fail("step", "no stones: add stones before stepping");
+  // A contact slot keeps its partner (stone or triangle) in 30 bits.
+  if (d.stoneCount >= partnerLimit || d.triangleCount() >= partnerLimit)
+    fail("step", std::to_string(d.stoneCount) + " stones and " + std::to_string(d.triangleCount()) +
+                     " triangles: at most " + std::to_string(partnerLimit - 1) + " of each");
+  if (!d.triangleMaterial.empty() && d.triangleMaterial.size() != static_cast<std::size_t>(d.triangleCount()))
+    fail("step", "setWallMaterials named " + std::to_string(d.triangleMaterial.size()) + " triangles, the walls have " +
+                     std::to_string(d.triangleCount()) + "; call it again after setWalls");
+  double maxBounding = 0.0, meanDilation = 0.0;
+  for (std::int32_t s : d.shape) {
+    maxBounding = std::max(maxBounding, d.shapes[s].boundingRadius);
+    meanDilation += d.shapes[s].dilationRadius;
+  }
+  meanDilation /= d.stoneCount;
+  // Default skin: a fifth of the dilation radius, the scale on which contacts open and close.
+  d.skin = parameters.neighbourSkin >= 0.0 ? parameters.neighbourSkin : 0.2 * meanDilation;
+  d.cellSize = 2.0 * maxBounding + d.skin;
+  storeInSpatialOrder();
+  try {
+    d.allocate();
+    backend->upload(d);
+  } catch (...) {
+    restoreUserOrder();
+    throw;
+  }
+  started = true;
 }
 
 PolyhedraSystem::PolyhedraSystem(const Parameters& p) : implementation_(std::make_unique<Implementation>()) {
@@ -288,7 +402,7 @@ PolyhedraSystem::PolyhedraSystem(const Parameters& p) : implementation_(std::mak
   d.maxPairs = p.maxNeighbours;
   d.maxWalls = p.maxWallNeighbours;
   d.stoneLaw = lawOf(p.stone, p.stone, true, "stone-stone");
-  d.wallLaw = lawOf(p.wall, p.stone, false, "stone-wall");
+  d.wallLaws[0] = lawOf(p.wall, p.stone, false, "stone-wall");
   if (p.backend != Backend::Cpu) {
     m.backend = makeCudaBackend(m.reason);
     if (m.backend) {
@@ -487,6 +601,32 @@ void PolyhedraSystem::setWalls(const std::vector<double>& coordinates, const std
   m.data.nodePosition = coordinates;
   m.data.nodeVelocity.assign(coordinates.size(), 0.0);
   m.data.triangles = triangles;
+  m.data.triangleMaterial.clear();
+  m.data.wallLawCount = 1;
+  m.data.wallLaws[0] = lawOf(m.parameters.wall, m.parameters.stone, false, "stone-wall");
+}
+
+void PolyhedraSystem::setWallMaterials(const std::vector<Material>& materials,
+                                       const std::vector<std::int32_t>& materialOfTriangle) {
+  Implementation& m = *implementation_;
+  HostData& d = m.data;
+  if (m.started) fail("setWallMaterials", "wall materials must be set before the first step");
+  if (materials.empty() || materials.size() > static_cast<std::size_t>(maxWallMaterials))
+    fail("setWallMaterials", "between 1 and " + std::to_string(maxWallMaterials) + " materials, got " +
+                                 std::to_string(materials.size()));
+  if (materialOfTriangle.size() != static_cast<std::size_t>(d.triangleCount()))
+    fail("setWallMaterials", "one material index per wall triangle: " + std::to_string(d.triangleCount()) +
+                                 " triangles, got " + std::to_string(materialOfTriangle.size()) + " indices");
+  for (std::size_t t = 0; t < materialOfTriangle.size(); ++t)
+    if (materialOfTriangle[t] < 0 || static_cast<std::size_t>(materialOfTriangle[t]) >= materials.size())
+      fail("setWallMaterials", "triangle " + std::to_string(t) + " names material " +
+                                   std::to_string(materialOfTriangle[t]) + " of " + std::to_string(materials.size()));
+  kernels::ContactLaw laws[maxWallMaterials] = {};
+  for (std::size_t k = 0; k < materials.size(); ++k)
+    laws[k] = lawOf(materials[k], m.parameters.stone, false, ("wall material " + std::to_string(k)).c_str());
+  std::copy(std::begin(laws), std::end(laws), std::begin(d.wallLaws));
+  d.wallLawCount = static_cast<int>(materials.size());
+  d.triangleMaterial = materialOfTriangle;
 }
 
 void PolyhedraSystem::setSurfaceKinematics(const std::vector<double>& positions,
@@ -519,31 +659,7 @@ void PolyhedraSystem::step(int steps) {
   Implementation& m = *implementation_;
   if (steps < 0) fail("step", "steps must be >= 0");
   HostData& d = m.data;
-  if (!m.started) {
-    if (d.stoneCount == 0) fail("step", "no stones: add stones before stepping");
-    // A contact slot keeps its partner (stone or triangle) in 30 bits.
-    if (d.stoneCount >= partnerLimit || d.triangleCount() >= partnerLimit)
-      fail("step", std::to_string(d.stoneCount) + " stones and " + std::to_string(d.triangleCount()) +
-                       " triangles: at most " + std::to_string(partnerLimit - 1) + " of each");
-    double maxBounding = 0.0, meanDilation = 0.0;
-    for (std::int32_t s : d.shape) {
-      maxBounding = std::max(maxBounding, d.shapes[s].boundingRadius);
-      meanDilation += d.shapes[s].dilationRadius;
-    }
-    meanDilation /= d.stoneCount;
-    // Default skin: a fifth of the dilation radius, the scale on which contacts open and close.
-    d.skin = m.parameters.neighbourSkin >= 0.0 ? m.parameters.neighbourSkin : 0.2 * meanDilation;
-    d.cellSize = 2.0 * maxBounding + d.skin;
-    m.storeInSpatialOrder();
-    try {
-      d.allocate();
-      m.backend->upload(d);
-    } catch (...) {
-      m.restoreUserOrder();
-      throw;
-    }
-    m.started = true;
-  }
+  m.start();
   if (steps == 0) return;
   // No download here: the CPU backend's arrays are the host arrays, the CUDA backend's state stays on the device.
   BackendCounters counters;
@@ -551,10 +667,14 @@ void PolyhedraSystem::step(int steps) {
   m.hostCurrent = m.active == Backend::Cpu;
   if (counters.values[counterPairOverflow] > 0 || counters.values[counterWallOverflow] > 0) {
     std::ostringstream message;
-    message << "neighbour list overflow: a stone had " << counters.values[counterPairOverflow]
-            << " stone candidates (maxNeighbours = " << d.maxPairs << ") or " << counters.values[counterWallOverflow]
-            << " wall candidates (maxWallNeighbours = " << d.maxWalls
-            << "); contacts were lost, the state is invalid. Raise the limit or lower neighbourSkin";
+    message << "neighbour list overflow:";
+    if (counters.values[counterPairOverflow] > 0)
+      message << " a stone had " << counters.values[counterPairOverflow] << " stone candidates (maxNeighbours = "
+              << d.maxPairs << ")";
+    if (counters.values[counterWallOverflow] > 0)
+      message << " a stone had " << counters.values[counterWallOverflow] << " wall candidates (maxWallNeighbours = "
+              << d.maxWalls << ")";
+    message << "; contacts were lost, the state is invalid. Raise the limit or lower neighbourSkin";
     fail("step", message.str());
   }
   m.statistics = StepStatistics{};
@@ -719,6 +839,141 @@ std::vector<ContactRecord> PolyhedraSystem::contacts() const {
     }
   }
   return result;
+}
+
+namespace {
+std::vector<StateHeader> stateHeader(const HostData& d, std::size_t shapeCount) {
+  return {{"stones", static_cast<std::uint64_t>(d.stoneCount)},
+          {"wall triangles", static_cast<std::uint64_t>(d.triangleCount())},
+          {"surface nodes", static_cast<std::uint64_t>(d.nodeCount())},
+          {"shape templates", shapeCount},
+          {"maxNeighbours", static_cast<std::uint64_t>(d.maxPairs)},
+          {"maxWallNeighbours", static_cast<std::uint64_t>(d.maxWalls)},
+          {"bytes per contact slot", sizeof(ContactSlot)},
+          {"bytes per rotation state", sizeof(kernels::RotationState)},
+          {"bytes per normal history", sizeof(kernels::NormalHistory)},
+          {"bytes per contact output", sizeof(ContactOutput)}};
+}
+} // namespace
+
+void PolyhedraSystem::saveSnapshot() {
+  Implementation& m = *implementation_;
+  m.start();
+  HostData& d = m.data;
+  m.backend->saveSnapshot(d);
+  Implementation::Snapshot& s = m.snapshot;
+  s.time = m.time;
+  s.lastSteps = m.lastSteps;
+  s.forcesValid = d.forcesValid;
+  s.statistics = m.statistics;
+  s.nodeVelocity = d.nodeVelocity;
+  s.saved = true;
+}
+
+void PolyhedraSystem::restoreSnapshot() {
+  Implementation& m = *implementation_;
+  const Implementation::Snapshot& s = m.snapshot;
+  if (!s.saved) fail("restoreSnapshot", "no snapshot: call saveSnapshot first");
+  HostData& d = m.data;
+  m.backend->restoreSnapshot(d);
+  m.time = s.time;
+  m.lastSteps = s.lastSteps;
+  d.forcesValid = s.forcesValid;
+  m.statistics = s.statistics;
+  d.nodeVelocity = s.nodeVelocity;
+  m.hostCurrent = m.active == Backend::Cpu; // the CUDA backend restored its device buffers
+}
+
+bool PolyhedraSystem::hasSnapshot() const { return implementation_->snapshot.saved; }
+
+void PolyhedraSystem::writeState(std::ostream& out) const {
+  Implementation& m = *implementation_;
+  m.start();
+  m.sync();
+  const HostData& d = m.data;
+  out.write(stateMagic, sizeof(stateMagic));
+  writeValue(out, stateVersion);
+  for (const StateHeader& field : stateHeader(d, m.properties.size())) writeValue(out, field.value);
+  writeArray(out, m.userOf);
+  writeArray(out, d.triangles);
+  writeArray(out, d.shape);
+  writeValue(out, m.time);
+  writeValue<std::int64_t>(out, m.lastSteps);
+  writeValue<std::uint8_t>(out, d.forcesValid ? 1 : 0);
+  writeValue(out, m.statistics.steps);
+  writeValue(out, m.statistics.neighbourRebuilds);
+  writeValue(out, m.statistics.dangerousRebuilds);
+  writeValue(out, m.statistics.coreOverlapFallbacks);
+  writeValue(out, m.statistics.meanActiveContacts);
+  visitStateArrays(d, [&](const char*, const auto& array) { writeArray(out, array); });
+  if (!out) fail("writeState", "the output stream failed (disk full, closed file?)");
+}
+
+void PolyhedraSystem::readState(std::istream& in) {
+  Implementation& m = *implementation_;
+  HostData& d = m.data;
+  if (d.stoneCount == 0) fail("readState", "no stones: build the system (shapes, stones, walls) before reading a state");
+  char magic[sizeof(stateMagic)] = {};
+  in.read(magic, sizeof(magic));
+  if (!in || std::memcmp(magic, stateMagic, sizeof(magic)) != 0)
+    fail("readState", "the stream does not start with a polyhedra state (written by PolyhedraSystem::writeState)");
+  const auto version = readValue<std::uint32_t>(in, "the format version");
+  if (version != stateVersion)
+    fail("readState", "state format version " + std::to_string(version) + ", this library reads version " +
+                          std::to_string(stateVersion));
+  for (const StateHeader& field : stateHeader(d, m.properties.size())) {
+    const auto value = readValue<std::uint64_t>(in, std::string("the header (") + field.name + ")");
+    if (value != field.value)
+      fail("readState", std::string(field.name) + ": " + std::to_string(value) + " in the stream, " +
+                            std::to_string(field.value) + " in this system");
+  }
+  const std::size_t n = static_cast<std::size_t>(d.stoneCount);
+  const std::vector<std::int32_t> order = readArray<std::int32_t>(in, n, "the storage order");
+  std::vector<char> seen(n, 0);
+  for (std::int32_t k : order) {
+    if (k < 0 || static_cast<std::size_t>(k) >= n || seen[k])
+      fail("readState", "the storage order in the stream is not a permutation of the stones (corrupt stream)");
+    seen[k] = 1;
+  }
+  if (readArray<std::int32_t>(in, d.triangles.size(), "the wall connectivity") != d.triangles)
+    fail("readState", "the wall triangles differ from this system's (setWalls with another mesh)");
+  const std::vector<std::int32_t> shapes = readArray<std::int32_t>(in, n, "the stones' shapes");
+  // This system's shape of each stone, in the user's (addStone) order, against the stream's in its storage order.
+  std::vector<std::int32_t> userShape(n);
+  for (std::size_t i = 0; i < n; ++i) userShape[i] = d.shape[m.stored(i)];
+  for (std::size_t k = 0; k < n; ++k)
+    if (shapes[k] != userShape[order[k]])
+      fail("readState", "stone " + std::to_string(order[k]) + " has shape " + std::to_string(userShape[order[k]]) +
+                            " here and " + std::to_string(shapes[k]) + " in the stream (stones added in another order?)");
+  const auto time = readValue<double>(in, "the time");
+  const auto lastSteps = readValue<std::int64_t>(in, "the step count");
+  const auto forcesValid = readValue<std::uint8_t>(in, "the force flag");
+  StepStatistics statistics;
+  statistics.steps = readValue<std::int64_t>(in, "the statistics");
+  statistics.neighbourRebuilds = readValue<std::int64_t>(in, "the statistics");
+  statistics.dangerousRebuilds = readValue<std::int64_t>(in, "the statistics");
+  statistics.coreOverlapFallbacks = readValue<std::int64_t>(in, "the statistics");
+  statistics.meanActiveContacts = readValue<double>(in, "the statistics");
+
+  // Everything is read into a copy first: a refused stream leaves the system as it was.
+  m.start();
+  m.sync();
+  HostData incoming = d;
+  incoming.shape = shapes;
+  visitStateArrays(incoming, [&](const char* name, auto& array) {
+    using Record = typename std::decay_t<decltype(array)>::value_type;
+    array = readArray<Record>(in, array.size(), std::string("the array '") + name + "'");
+  });
+  d = std::move(incoming);
+  m.userOf = order;
+  for (std::size_t k = 0; k < n; ++k) m.storedOf[order[k]] = static_cast<std::int32_t>(k);
+  m.time = time;
+  m.lastSteps = static_cast<int>(lastSteps);
+  d.forcesValid = forcesValid != 0;
+  m.statistics = statistics;
+  m.snapshot.saved = false; // a kept snapshot may speak another storage order
+  m.backend->upload(d);
+  m.hostCurrent = true;
 }
 
 } // namespace railcosim::polyhedra

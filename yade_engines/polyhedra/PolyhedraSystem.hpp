@@ -3,9 +3,14 @@
 
 #include <array>
 #include <cstdint>
+#include <iosfwd>
 #include <memory>
 #include <string>
 #include <vector>
+
+namespace railcosim::kernels {
+struct ContactMaterial;
+}
 
 namespace railcosim::polyhedra {
 
@@ -46,13 +51,20 @@ struct Material {
   double maxContactStress = 0.0; ///< σ_c,max [Pa] of the stress-dependent friction; 0: constant μ
 };
 
+/// The polyhedra Material of a contact-law material (kernels/ContactLaw.hpp; e.g. YADE's, from contactMaterialOf):
+/// every field but the rolling friction, which stones do not have.
+Material materialOf(const kernels::ContactMaterial& material);
+
 enum class Backend { Automatic, Cpu, Cuda };
+
+/// Most distinct wall materials one system holds (setWallMaterials): fixed walls of a few kinds and a coupled surface.
+constexpr int maxWallMaterials = 4;
 
 struct Parameters {
   double timeStep = 1e-6;                         ///< Δt [s]
   std::array<double, 3> gravity{0.0, 0.0, -9.81}; ///< [m/s^2]
   Material stone;                                 ///< stone–stone contacts
-  Material wall;                                  ///< stone–wall/surface contacts (friction, restitution of the pair)
+  Material wall; ///< stone–wall/surface contacts (friction, restitution of the pair); per triangle: setWallMaterials
   double neighbourSkin = -1.0;                    ///< Verlet skin [m]; < 0: 0.2 × mean dilation radius
   /// Steps between neighbour-list rebuilds [-]. Every `step` call starts with one; with adaptiveRebuild a
   /// later one is skipped while no stone's displacement since the last rebuild plus its speed × this
@@ -119,6 +131,11 @@ public:
   /// then this before each coupling window with node positions and velocities (3 per node). Nodes
   /// move with that constant velocity during the following `step` call.
   void setSurfaceKinematics(const std::vector<double>& positions, const std::vector<double>& velocities);
+  /// Materials of the wall triangles: triangle t of setWalls meets the stones as materials[materialOfTriangle[t]],
+  /// mixed with Parameters::stone by the one rule of the contact law (at most maxWallMaterials; e.g. frictionless
+  /// side walls beside a coupled surface). Without this call every triangle is Parameters::wall. After setWalls,
+  /// before the first step.
+  void setWallMaterials(const std::vector<Material>& materials, const std::vector<std::int32_t>& materialOfTriangle);
 
   /// Changes Δt [s] / gravity [m/s^2] for the following steps (e.g. a coarse packing phase, YADE's O.dt).
   void setTimeStep(double timeStep);
@@ -155,6 +172,34 @@ public:
   /// Active contacts at the last force evaluation of the last `step` call, in no particular order; `first`
   /// and `second` are addStone indices (`first` may be the larger one).
   std::vector<ContactRecord> contacts() const;
+
+  // Snapshots of the dynamic state, to simulate a stretch of time again (implicit coupling windows) or to restart.
+  // The state is everything a later `step` reads: per stone position, velocity, orientation and angular velocity
+  // with the rotation integrator's state, the contact forces and torques of the last evaluation (the next
+  // predictor's), the displacement reference of the rebuild test; the neighbour lists with every contact's
+  // tangential spring, last normal, GJK warm start and normal-model (plastic) history; the surface node positions
+  // and velocities; the time, and what the accessors report of the last call (triangle sums, contacts, statistics).
+  // Not state: Parameters, shapes, wall connectivity and materials, which belong to the system's construction. A
+  // system not stepped yet is first prepared as its first `step` would (spatial order, lists allocated).
+  // Stepping on from a restored state repeats what stepping on from the saved moment gave, bit for bit, wherever
+  // that is repeatable at all: the CPU reference below 512 stones or with one OpenMP thread (above, the threads'
+  // force sums add in varying order), not the CUDA backend (atomic sums).
+
+  /// Keeps one copy of the state where it lives (host memory, or device buffers on the CUDA backend); a second
+  /// call replaces it.
+  void saveSnapshot();
+  /// Puts the kept copy back (it stays kept: a window may be repeated several times). Throws Error if none.
+  void restoreSnapshot();
+  bool hasSnapshot() const;
+  /// The state as bytes: a header (format version, stone, triangle, node and shape counts, list capacities,
+  /// record sizes), the storage order of the stones, the wall connectivity, the stones' shapes, then the arrays
+  /// (native byte order: the machine that wrote them, or one of the same architecture, reads them back).
+  void writeState(std::ostream& out) const;
+  /// Replaces the state with one written by writeState of a system built the same way (same shapes, stones in
+  /// the same addStone order with the same shapes, same walls, same list capacities and law history; the
+  /// Parameters may differ, e.g. a new time step). Throws Error naming the mismatch, a wrong version or a
+  /// truncated stream, leaving the system as it was.
+  void readState(std::istream& in);
 
   struct Implementation;
 

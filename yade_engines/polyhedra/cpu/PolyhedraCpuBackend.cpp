@@ -1,5 +1,6 @@
 // CPU reference backend: the per-stone functions of PolyhedraStep.hpp in OpenMP loops (also the fallback).
 #include <algorithm>
+#include <cstring>
 #include <numeric>
 
 #include "polyhedra/PolyhedraBackend.hpp"
@@ -19,7 +20,7 @@ void HostData::allocate() {
   wallSlotsPrevious.assign(n * maxWalls, empty);
   const kernels::NormalHistory fresh{0.0, 0.0};
   const bool pairHistory = kernels::normalHistorySlots(stoneLaw.config) > 0;
-  const bool wallHistory = kernels::normalHistorySlots(wallLaw.config) > 0;
+  const bool wallHistory = wallNormalHistoryKept();
   pairNormalHistory.assign(pairHistory ? n * maxPairs : 0, fresh);
   pairNormalHistoryPrevious.assign(pairHistory ? n * maxPairs : 0, fresh);
   wallNormalHistory.assign(wallHistory ? n * maxWalls : 0, fresh);
@@ -44,6 +45,12 @@ void HostData::allocate() {
   if (nodeVelocity.size() != nodePosition.size()) nodeVelocity.assign(nodePosition.size(), 0.0);
 }
 
+bool HostData::wallNormalHistoryKept() const {
+  for (int k = 0; k < wallLawCount; ++k)
+    if (kernels::normalHistorySlots(wallLaws[k].config) > 0) return true;
+  return false;
+}
+
 SystemView HostData::view() {
   SystemView v{};
   v.stoneCount = stoneCount;
@@ -61,6 +68,7 @@ SystemView HostData::view() {
   v.nodePosition = nodePosition.data();
   v.nodeVelocity = nodeVelocity.data();
   v.triangles = triangles.data();
+  v.triangleMaterial = triangleMaterial.empty() ? nullptr : triangleMaterial.data();
   v.triangleForceSum = triangleForceSum.data();
   v.trianglePointSum = trianglePointSum.data();
   v.triangleWeightSum = triangleWeightSum.data();
@@ -87,7 +95,7 @@ SystemView HostData::view() {
   v.featureTolerance = featureTolerance;
   v.recordOutput = true;
   v.stoneLaw = stoneLaw;
-  v.wallLaw = wallLaw;
+  for (int k = 0; k < maxWallMaterials; ++k) v.wallLaws[k] = wallLaws[k];
   v.counters = counters;
   return v;
 }
@@ -102,6 +110,27 @@ public:
   void upload(HostData&) override {}
   void uploadSurface(HostData&) override {}
   void download(HostData&) override {}
+
+  // Byte copies of the state arrays: every element type there is trivially copyable, and the sizes are fixed once
+  // the arrays are allocated.
+  // A repeated save reuses the buffers of the last one (a fresh allocation per window cost 40x the copy itself).
+  void saveSnapshot(HostData& d) override {
+    std::size_t k = 0;
+    visitStateArrays(d, [&](const char*, const auto& array) {
+      if (saved_.size() <= k) saved_.emplace_back();
+      const auto* bytes = reinterpret_cast<const unsigned char*>(array.data());
+      saved_[k++].assign(bytes, bytes + array.size() * sizeof(array[0]));
+    });
+  }
+
+  void restoreSnapshot(HostData& d) override {
+    std::size_t k = 0;
+    visitStateArrays(d, [&](const char*, auto& array) {
+      const std::vector<unsigned char>& bytes = saved_[k++];
+      array.resize(bytes.size() / sizeof(array[0]));
+      if (!bytes.empty()) std::memcpy(static_cast<void*>(array.data()), bytes.data(), bytes.size());
+    });
+  }
 
   void step(HostData& d, int steps, BackendCounters& result) override {
     std::fill(std::begin(d.counters), std::end(d.counters), 0ull);
@@ -158,6 +187,8 @@ public:
   }
 
 private:
+  std::vector<std::vector<unsigned char>> saved_; // saveSnapshot's copy, in visitStateArrays order
+
   static void rebuild(HostData& d) {
     const int n = d.stoneCount;
     // Dangerous-displacement flag refers to the list being replaced; keep what predict reported.

@@ -49,6 +49,12 @@ public:
     if (count_ > 0)
       check(cudaMemcpyAsync(host.data(), data_, count_ * sizeof(T), cudaMemcpyDeviceToHost, stream), "download");
   }
+  // Device-to-device copy of `source` (resized to fit), queued on `stream`.
+  void copyFrom(const DeviceArray& source, cudaStream_t stream) {
+    resize(source.count_);
+    if (count_ > 0)
+      check(cudaMemcpyAsync(data_, source.data_, count_ * sizeof(T), cudaMemcpyDeviceToDevice, stream), "device copy");
+  }
   T* get() const { return data_; }
   std::size_t size() const { return count_; }
 
@@ -298,6 +304,7 @@ public:
     nodePosition_.upload(d.nodePosition, stream_);
     nodeVelocity_.upload(d.nodeVelocity, stream_);
     triangles_.upload(d.triangles, stream_);
+    triangleMaterial_.upload(d.triangleMaterial, stream_);
     triangleForce_.upload(d.triangleForceSum, stream_);
     trianglePoint_.upload(d.trianglePointSum, stream_);
     triangleWeight_.upload(d.triangleWeightSum, stream_);
@@ -386,6 +393,18 @@ public:
     check(cudaStreamSynchronize(stream_), "download");
   }
 
+  // The state arrays of visitStateArrays, device to device; the current lists are whichever buffer `current_` names
+  // at the time (restoring into the present parity keeps the captured graphs valid: no buffer moves).
+  void saveSnapshot(HostData&) override {
+    forEachStateBuffer([&](auto& live, auto& saved) { saved.copyFrom(live, stream_); });
+    check(cudaStreamSynchronize(stream_), "snapshot");
+  }
+
+  void restoreSnapshot(HostData&) override {
+    forEachStateBuffer([&](auto& live, auto& saved) { live.copyFrom(saved, stream_); });
+    check(cudaStreamSynchronize(stream_), "snapshot restore");
+  }
+
   void step(HostData& d, int steps, BackendCounters& result) override {
     check(cudaMemsetAsync(counters_.get(), 0, counterCount * sizeof(unsigned long long), stream_), "counter reset");
     zeroTriangleSums();
@@ -440,6 +459,29 @@ public:
   }
 
 private:
+  template <class Visitor>
+  void forEachStateBuffer(Visitor&& visit) {
+    visit(position_, saved_.position);
+    visit(velocity_, saved_.velocity);
+    visit(rotation_, saved_.rotation);
+    visit(force_, saved_.force);
+    visit(torque_, saved_.torque);
+    visit(reference_, saved_.reference);
+    visit(nodePosition_, saved_.nodePosition);
+    visit(nodeVelocity_, saved_.nodeVelocity);
+    visit(triangleForce_, saved_.triangleForce);
+    visit(trianglePoint_, saved_.trianglePoint);
+    visit(triangleWeight_, saved_.triangleWeight);
+    visit(pairSlots_[current_], saved_.pairSlots);
+    visit(pairCount_[current_], saved_.pairCount);
+    visit(pairNormal_[current_], saved_.pairNormal);
+    visit(pairOutput_, saved_.pairOutput);
+    visit(wallSlots_[current_], saved_.wallSlots);
+    visit(wallCount_[current_], saved_.wallCount);
+    visit(wallNormal_[current_], saved_.wallNormal);
+    visit(wallOutput_, saved_.wallOutput);
+  }
+
   static int sortBits(std::uint32_t tableSize) {
     int bits = 0;
     while ((1u << bits) < tableSize) ++bits;
@@ -460,6 +502,7 @@ private:
     v.nodePosition = nodePosition_.get();
     v.nodeVelocity = nodeVelocity_.get();
     v.triangles = triangles_.get();
+    v.triangleMaterial = triangleMaterial_.get(); // null when every triangle has the first wall law
     v.triangleForceSum = triangleForce_.get();
     v.trianglePointSum = trianglePoint_.get();
     v.triangleWeightSum = triangleWeight_.get();
@@ -603,7 +646,7 @@ private:
   DeviceArray<kernels::RotationState> rotation_;
   DeviceArray<double> position_, velocity_, force_, torque_, reference_, vertices_, nodePosition_, nodeVelocity_,
       triangleForce_, trianglePoint_, triangleWeight_;
-  DeviceArray<std::int32_t> shape_, triangles_, pairCount_[2], wallCount_[2], sortedStone_, rawStone_, cellStart_,
+  DeviceArray<std::int32_t> shape_, triangles_, triangleMaterial_, pairCount_[2], wallCount_[2], sortedStone_, rawStone_, cellStart_,
       cellEnd_;
   DeviceArray<ShapeData> shapes_;
   DeviceArray<ContactSlot> pairSlots_[2], wallSlots_[2];
@@ -616,6 +659,16 @@ private:
   DeviceArray<unsigned> candidateCount_;
   DeviceArray<ContactGeometry> wallGeometry_;
   DeviceArray<unsigned> survivorCount_;
+  // saveSnapshot's copy of the state buffers (forEachStateBuffer pairs them with the live ones).
+  struct SavedState {
+    DeviceArray<double> position, velocity, force, torque, reference, nodePosition, nodeVelocity, triangleForce,
+        trianglePoint, triangleWeight;
+    DeviceArray<kernels::RotationState> rotation;
+    DeviceArray<ContactSlot> pairSlots, wallSlots;
+    DeviceArray<std::int32_t> pairCount, wallCount;
+    DeviceArray<kernels::NormalHistory> pairNormal, wallNormal;
+    DeviceArray<ContactOutput> pairOutput, wallOutput;
+  } saved_;
   int contactBlocks_ = 1; // resident blocks of the narrow-phase kernels (grid-stride over the survivors)
   int filterBlocks_ = 1;  // resident blocks of the filter kernels (grid-stride over the candidate lists)
 };

@@ -4,6 +4,7 @@
 
 #include "railcosim/CouplingScheme.hpp"
 #include "railcosim/Error.hpp"
+#include "railcosim/ForceLumping.hpp"
 #include "railcosim/Participant.hpp"
 
 #include <core/Scene.hpp>
@@ -24,18 +25,42 @@ double secondsSince(Clock::time_point start) { return std::chrono::duration<doub
 Vector3r node(const std::vector<double>& xyz, int i) { return Vector3r(xyz[3 * i], xyz[3 * i + 1], xyz[3 * i + 2]); }
 } // namespace
 
-bool FemCouplingEngine::meshContacts() const {
-  if (contactModel == "meshContacts") return true;
+FemCouplingEngine::Model FemCouplingEngine::surfaceModel() const {
+  if (contactModel == "meshContacts") return Model::MeshContacts;
   if (contactModel == "hierarchy") {
     static bool warned = false;
     if (!warned)
       LOG_WARN("FemCouplingEngine: contactModel='hierarchy' is deprecated; it is now called 'meshContacts'.");
     warned = true;
-    return true;
+    return Model::MeshContacts;
   }
-  if (contactModel == "facets") return false;
+  if (contactModel == "facets") return Model::Facets;
+  if (contactModel == "polyhedra") return Model::Polyhedra;
   throw std::invalid_argument("FemCouplingEngine: contactModel='" + contactModel +
-                              "' is not known; use 'facets' or 'meshContacts'.");
+                              "' is not known; use 'facets', 'meshContacts' or 'polyhedra'.");
+}
+
+// The scene's one PolyhedraGpuEngine (contactModel 'polyhedra').
+shared_ptr<PolyhedraGpuEngine> FemCouplingEngine::findPolyhedraEngine() const {
+  shared_ptr<PolyhedraGpuEngine> found;
+  int count = 0;
+  for (const auto& engine : scene->engines)
+    if (auto candidate = boost::dynamic_pointer_cast<PolyhedraGpuEngine>(engine)) {
+      found = candidate;
+      ++count;
+    }
+  if (count != 1)
+    throw std::invalid_argument(
+        "FemCouplingEngine: contactModel='polyhedra' couples the surface to the stones of the scene's one "
+        "PolyhedraGpuEngine, but O.engines holds " +
+        std::to_string(count) +
+        (count == 0 ? "; add the PolyhedraGpuEngine that advances the stones to O.engines before connecting."
+                    : "; keep one (a surface can join one polyhedra system)."));
+  return found;
+}
+
+void FemCouplingEngine::attachPolyhedraSurface() {
+  if (!connected && surfaceModel() == Model::Polyhedra) connect();
 }
 
 FemCouplingEngine::~FemCouplingEngine() {
@@ -68,7 +93,17 @@ void FemCouplingEngine::connect() {
                                 " (attributes scheme, implicitTolerance, implicitAbsoluteTolerance, "
                                 "implicitMaxIterations, implicitRelaxation)");
   }
-  const bool withMeshContacts = meshContacts();
+  const Model model = surfaceModel();
+  const bool withMeshContacts = model == Model::MeshContacts;
+  if (model == Model::Polyhedra) { // refused before the handshake, not after it
+    polyhedra = findPolyhedraEngine();
+    if (polyhedra->initialized())
+      throw std::invalid_argument(
+          "FemCouplingEngine (contactModel='polyhedra'): the PolyhedraGpuEngine was initialized before this engine "
+          "connected, so the surface cannot join its walls; put both engines in O.engines before the first step, or "
+          "call connect() before the PolyhedraGpuEngine's initialize().");
+    PolyhedraGpuEngine::checkSurfaceMaterial(material, restitution);
+  }
   if (withMeshContacts) {
     meshContact = shared_ptr<FemSurfaceContactEngine>(new FemSurfaceContactEngine);
     meshContact->material = material;
@@ -110,7 +145,10 @@ void FemCouplingEngine::connect() {
   for (size_t t = 0; t < setup.mesh.triangleCount(); ++t)
     triangles.push_back(Vector3i(connectivity[3 * t], connectivity[3 * t + 1], connectivity[3 * t + 2]));
   facetIds.clear();
-  if (withMeshContacts)
+  interfaceTriangles = connectivity;
+  if (model == Model::Polyhedra)
+    polyhedra->attachSurface(connectivity, setup.mesh.coordinates, material, restitution);
+  else if (withMeshContacts)
     meshContact->attach(connectivity, setup.mesh.coordinates);
   else
     facetIds = facets.insert(*scene, connectivity, material, mask);
@@ -121,13 +159,24 @@ void FemCouplingEngine::connect() {
   waitTime += participant->statistics().waitSeconds - waitBefore;
   forceSum.assign(3 * setup.mesh.nodeCount(), 0.0);
   nodalForces.assign(setup.mesh.nodeCount(), Vector3r::Zero());
+  polyhedraForces.assign(3 * setup.mesh.nodeCount(), 0.0);
   stepsInWindow = 0;
   window = 0;
   connected = true;
-  placeSurface(0, false);
+  if (model == Model::Polyhedra)
+    startPolyhedraWindow();
+  else
+    placeSurface(0, false);
 }
 
 void FemCouplingEngine::placeSurface(Real tau, bool beforeIntegrator) {
+  if (polyhedra) { // the linear motion the polyhedra system follows (attributes for Python)
+    for (size_t i = 0; i < nodePositions.size(); ++i) {
+      nodeVelocities[i] = node(windowVelocities, i);
+      nodePositions[i] = node(windowStartPositions, i) + tau * nodeVelocities[i];
+    }
+    return;
+  }
   coupling->surfaceAt(tau, surfacePositions, surfaceVelocities);
   const size_t nodes = surfacePositions.size() / 3;
   nodePositions.resize(nodes);
@@ -143,14 +192,26 @@ void FemCouplingEngine::placeSurface(Real tau, bool beforeIntegrator) {
 }
 
 void FemCouplingEngine::saveCheckpoint() {
+  const auto start = Clock::now();
   sceneCheckpoint.save(*scene);
   savedWorkDem = interfaceWorkDem;
   savedWorkFem = interfaceWorkFem;
   savedHistory = meshContact ? meshContact->history() : nullptr;
-  checkpointTime = sceneCheckpoint.seconds();
+  savedIntegrators.clear();
+  for (const auto& engine : scene->engines)
+    if (auto integrator = boost::dynamic_pointer_cast<QuaternionIntegrator>(engine))
+      savedIntegrators.emplace_back(integrator, integrator->integrationState());
+  if (polyhedra) polyhedra->saveSnapshot();
+  checkpointTime += secondsSince(start);
 }
 
 void FemCouplingEngine::restoreCheckpoint() {
+  const auto start = Clock::now();
+  struct AddTime { // also when the restore throws
+    Real& total;
+    Clock::time_point start;
+    ~AddTime() { total += secondsSince(start); }
+  } addTime{checkpointTime, start};
   try {
     sceneCheckpoint.restore(*scene);
   } catch (const std::runtime_error& e) {
@@ -160,7 +221,8 @@ void FemCouplingEngine::restoreCheckpoint() {
   interfaceWorkDem = savedWorkDem;
   interfaceWorkFem = savedWorkFem;
   if (meshContact) meshContact->restoreHistory(savedHistory);
-  checkpointTime = sceneCheckpoint.seconds();
+  for (const auto& [integrator, state] : savedIntegrators) integrator->restoreIntegrationState(state);
+  if (polyhedra) polyhedra->restoreSnapshot();
 }
 
 void FemCouplingEngine::accumulateStep() {
@@ -179,7 +241,7 @@ void FemCouplingEngine::accumulateStep() {
   }
 }
 
-bool FemCouplingEngine::exchange() {
+std::vector<double> FemCouplingEngine::windowForces() {
   std::vector<double> forces;
   if (averageForces) {
     forces = forceSum;
@@ -189,6 +251,10 @@ bool FemCouplingEngine::exchange() {
   } else {
     facets.collectForces(*scene, surfacePositions, forces);
   }
+  return forces;
+}
+
+bool FemCouplingEngine::exchange(std::vector<double> forces) {
   const size_t nodes = forces.size() / 3;
   totalForce = Vector3r::Zero();
   for (size_t i = 0; i < nodes; ++i) {
@@ -221,6 +287,10 @@ void FemCouplingEngine::action() {
   try {
     // Connecting here means the surface missed this step's contact evaluation; the window starts now.
     if (!connected) connect();
+    if (polyhedra) { // the polyhedra system finds the surface contacts itself, one window per batch
+      polyhedraAction();
+      return;
+    }
     // Forces of this step's contact evaluation belong to the configuration at t_i + stepsInWindow*dt.
     const bool everyStep = averageForces || auditEnergy || coupling->iterates();
     if (meshContact) {
@@ -236,7 +306,7 @@ void FemCouplingEngine::action() {
     if (stepsInWindow == subcycles) {
       const auto start = Clock::now();
       const double waitBefore = waitTime;
-      const bool windowStands = exchange();
+      const bool windowStands = exchange(windowForces());
       bridgeTime += secondsSince(start) - (waitTime - waitBefore);
       stepsInWindow = 0;
       // Back to the window's start (states, contacts, forces, clock) for another pass.
@@ -255,6 +325,70 @@ void FemCouplingEngine::action() {
             << "): " << e.what();
     throw std::runtime_error(context.str());
   }
+}
+
+// contactModel 'polyhedra'. The window's DEM steps run in one batch in its last iteration, so that the stones' bodies
+// match the scene's time after it; the exchange follows at the next iteration, where the other models exchange too.
+void FemCouplingEngine::polyhedraAction() {
+  if (stepsInWindow == subcycles) {
+    const auto start = Clock::now();
+    const double waitBefore = waitTime;
+    const bool windowStands = exchange(polyhedraForces);
+    bridgeTime += secondsSince(start) - (waitTime - waitBefore);
+    stepsInWindow = 0;
+    if (!windowStands) restoreCheckpoint(); // the scene, the integrators and the polyhedra system
+    startPolyhedraWindow();
+  }
+  if (coupling->requiresWritingCheckpoint()) {
+    saveCheckpoint();
+    coupling->markCheckpointWritten();
+  }
+  ++stepsInWindow;
+  placeSurface(stepsInWindow * scene->dt, true);
+  if (stepsInWindow == subcycles) advancePolyhedraWindow();
+}
+
+// The straight line the surface follows in the window: from the scheme's position at its start to that at its end.
+void FemCouplingEngine::startPolyhedraWindow() {
+  std::vector<double> end, unused;
+  coupling->surfaceAt(0.0, windowStartPositions, unused);
+  coupling->surfaceAt(femDt, end, unused);
+  windowVelocities.resize(end.size());
+  for (size_t k = 0; k < end.size(); ++k) windowVelocities[k] = (end[k] - windowStartPositions[k]) / femDt;
+  nodePositions.resize(end.size() / 3);
+  nodeVelocities.resize(end.size() / 3);
+  placeSurface(0, false);
+}
+
+void FemCouplingEngine::advancePolyhedraWindow() {
+  std::vector<double> triangleForces, contactPoints;
+  const auto stepping = Clock::now();
+  polyhedra->advanceWindow(windowStartPositions, windowVelocities, subcycles, triangleForces, contactPoints);
+  polyhedraTime += secondsSince(stepping);
+  const auto mapping = Clock::now();
+  // The window's points are means over the window of a surface moving linearly: lumped on its mid-window position.
+  std::vector<double> middle(windowStartPositions.size());
+  for (size_t k = 0; k < middle.size(); ++k) middle[k] = windowStartPositions[k] + 0.5 * femDt * windowVelocities[k];
+  std::fill(polyhedraForces.begin(), polyhedraForces.end(), 0.0);
+  long loaded = 0;
+  for (size_t t = 0; t < triangleForces.size() / 3; ++t) {
+    const std::array<double, 3> force{triangleForces[3 * t], triangleForces[3 * t + 1], triangleForces[3 * t + 2]};
+    if (force[0] == 0 && force[1] == 0 && force[2] == 0) continue;
+    railcosim::lumpPointForce(middle, interfaceTriangles, t,
+                              {contactPoints[3 * t], contactPoints[3 * t + 1], contactPoints[3 * t + 2]}, force,
+                              polyhedraForces);
+    ++loaded;
+  }
+  surfaceContacts = loaded;
+  surfaceTouched = loaded > 0;
+  // The window's work on the DEM copy of the surface: Σ_steps F·V Δt_D with V constant over the window is the mean
+  // force times V times the window, exactly.
+  if (auditEnergy) {
+    Real work = 0;
+    for (size_t k = 0; k < polyhedraForces.size(); ++k) work += polyhedraForces[k] * windowVelocities[k];
+    interfaceWorkDem += work * femDt;
+  }
+  mappingTime += secondsSince(mapping);
 }
 
 void FemCouplingEngine::finalize() {

@@ -9,6 +9,8 @@
 #include <string>
 #include <vector>
 
+#include "../integrator/QuaternionIntegrator.hpp"
+#include "../polyhedra/PolyhedraGpuEngine.hpp"
 #include "FacetSurface.hpp"
 #include "FemSurfaceContactEngine.hpp"
 #include "SceneCheckpoint.hpp"
@@ -20,11 +22,12 @@ class DemCouplingScheme;
 
 namespace yade {
 
-class FemCouplingEngine : public GlobalEngine {
+class FemCouplingEngine : public GlobalEngine, public PolyhedraSurfaceSource {
 public:
   void action() override;
   void connect();
   void finalize();
+  void attachPolyhedraSurface() override; // contactModel 'polyhedra': connects, which attaches the surface
   Real femTimeStepPy() const { return femDt; }
   virtual ~FemCouplingEngine();
 
@@ -44,8 +47,24 @@ public:
 		"see :yref:`FemCouplingEngine.implicitTolerance`). The FEM solver must use the same scheme.\n\n"
 		"Implicit scheme and the rest of the scene: a repeated window restores body states, interactions, forces, "
 		":yref:`Omega.time` and :yref:`Omega.iter` as they were when the window started, so periodic engines "
-		"(:yref:`PyRunner` with iterPeriod) fire once per accepted window. Engines with private per-body state "
-		"(e.g. :yref:`QuaternionIntegrator`) are not rolled back.",
+		"(:yref:`PyRunner` with iterPeriod) fire once per accepted window; also the private state of the engines that keep "
+		"one across steps: the half-step slots of every :yref:`QuaternionIntegrator` of O.engines (sphere clusters), the "
+		"``meshContacts`` history, and the whole polyhedra system of the :yref:`PolyhedraGpuEngine` (``polyhedra``), so that "
+		"the accepted pass is the pass a single run from the window start would make. Other engines' private state is "
+		"not rolled back (:yref:`BoundedRollingFrictionEngine` keeps none across steps).\n\n"
+		"Polyhedral stones (``contactModel='polyhedra'``): the interface joins the walls of the scene's one "
+		":yref:`PolyhedraGpuEngine` (beside its Facet walls), and this engine drives it one window at a time: in the "
+		"window's last iteration the polyhedra system advances the window's :yref:`FemCouplingEngine.subcycles` DEM "
+		"steps in one batch (on the GPU when usable), the surface nodes moving linearly from the scheme's position at the "
+		"window start to its position at the window end: exact for ``predictive`` and ``implicit``, whose surface moves "
+		"linearly; for ``justInTime`` the end position is that of the P+V t+A t^2/2 extrapolation (the straight line "
+		"between its ends, not the parabola). The stones' YADE bodies are synced at the end of the batch. The FEM receives "
+		"the window's mean force on each triangle, lumped to its nodes with the barycentric weights of the triangle's "
+		"force-weighted mean contact point on the surface at mid-window (the mean position of a linearly moving "
+		"triangle): total force and impulse over the window are exact, as with :yref:`FemCouplingEngine.averageForces`, "
+		"which this model always does. Contact law: the one of the kernels, the surface's material "
+		":yref:`FemCouplingEngine.material` with restitution :yref:`FemCouplingEngine.restitution` mixed with the stones' "
+		"by the one rule (docs/contact-models.md).",
 		((string, endpoint, "", , "ZeroMQ endpoint of the FEM participant, e.g. ``ipc:///tmp/railcosim.sock`` or ``tcp://127.0.0.1:5555``."))
 		((string, participantName, "dem", , "Name of this participant, shown in every message of the peer."))
 		((string, scheme, "justInTime", , "Coupling scheme: ``justInTime``, ``predictive`` or ``implicit``."))
@@ -59,15 +78,15 @@ public:
 		((long, maxWindowPasses, 0, Attr::readonly, "``implicit``: most passes any window needed."))
 		((long, unconvergedWindows, 0, Attr::readonly, "``implicit``: windows accepted after implicitMaxIterations passes without meeting the tolerance."))
 		((Real, lastResidual, 0, Attr::readonly, "``implicit``: rms position residual of the last judged pass [m]."))
-		((Real, checkpointTime, 0, Attr::readonly, "Schemes that repeat windows (``implicit``): time spent saving and restoring the scene checkpoint [s]."))
-		((string, contactModel, "facets", , "How particles touch the surface. ``facets``: one :yref:`Facet` body per triangle, contacts handled by the scene's own :yref:`InteractionLoop` functors (a sphere over an edge between two triangles gets a contact from each). ``meshContacts``: a :yref:`FemSurfaceContactEngine` run by this engine finds the sphere-surface contacts itself with the facet > edge > vertex hierarchy (one contact per touching surface patch, shadowed contacts removed), contact-point velocity interpolated from the nodal velocities, force from the one contact law of the kernels (docs/contact-models.md: sub-models and parameters mixed from the particle and surface materials as for a pair, restitution :yref:`FemCouplingEngine.restitution`); no facet bodies are inserted. ``hierarchy`` is the former name of ``meshContacts`` (deprecated, still accepted)."))
-		((Real, restitution, 0.5, , "``meshContacts`` model: coefficient of restitution of particle-surface impacts [-], turned into a Hertzian damping ratio."))
-		((long, surfaceContacts, 0, Attr::readonly, "``meshContacts`` model: number of particle-surface contacts at the last step."))
+		((Real, checkpointTime, 0, Attr::readonly, "Schemes that repeat windows (``implicit``): time spent saving and restoring the scene checkpoint, the engines' private state included [s]."))
+		((string, contactModel, "facets", , "How particles touch the surface. ``facets``: one :yref:`Facet` body per triangle, contacts handled by the scene's own :yref:`InteractionLoop` functors (a sphere over an edge between two triangles gets a contact from each). ``meshContacts``: a :yref:`FemSurfaceContactEngine` run by this engine finds the sphere-surface contacts itself with the facet > edge > vertex hierarchy (one contact per touching surface patch, shadowed contacts removed), contact-point velocity interpolated from the nodal velocities, force from the one contact law of the kernels (docs/contact-models.md: sub-models and parameters mixed from the particle and surface materials as for a pair, restitution :yref:`FemCouplingEngine.restitution`); spheres and clump members (sphere clusters); no facet bodies are inserted. ``polyhedra``: the surface becomes part of the walls of the scene's one :yref:`PolyhedraGpuEngine`, which advances its stones one window per batch (see above); no facet bodies are inserted. ``hierarchy`` is the former name of ``meshContacts`` (deprecated, still accepted)."))
+		((Real, restitution, 0.5, , "``meshContacts`` model: coefficient of restitution of particle-surface impacts [-], turned into a Hertzian damping ratio. ``polyhedra`` model: the restitution of the surface's material, mixed with the stones' (mean of the two damping ratios; equal values give that restitution)."))
+		((long, surfaceContacts, 0, Attr::readonly, "``meshContacts`` model: number of particle-surface contacts at the last step. ``polyhedra`` model: number of surface triangles the stones loaded in the last window."))
 		((Real, timeout, 60, , "Longest wait for any message of the FEM participant [s] before giving up with an error."))
 		((Real, heartbeat, 1, , "Keepalive interval [s]: a frozen peer (silent, not even keepalives) is reported after three intervals; a dead one at once."))
 		((int, subcycles, 0, , "DEM steps per coupling window. 0 (default): the smallest count for which femTimeStep/subcycles does not exceed the current :yref:`Omega.dt`. Omega.dt is set to femTimeStep/subcycles at connection."))
-		((bool, averageForces, false, , "Send the time average of the nodal forces over the window's DEM steps instead of those of its last step (impulse-conserving)."))
-		((shared_ptr<Material>, material, , , "Material of the inserted facets (required)."))
+		((bool, averageForces, false, , "Send the time average of the nodal forces over the window's DEM steps instead of those of its last step (impulse-conserving). The ``polyhedra`` model always sends the window average."))
+		((shared_ptr<Material>, material, , , "Material of the surface (required): of the inserted facets, of the mesh contacts, or of the polyhedra engine's surface triangles (FrictMat or BallastMat)."))
 		((int, mask, 1, , ":yref:`Body.groupMask` of the inserted facets."))
 		((Real, femDt, 0, Attr::readonly, "FEM time step = coupling window length [s], received at connection."))
 		((long, window, 0, Attr::readonly, "Index of the current coupling window (number of completed exchanges)."))
@@ -82,7 +101,8 @@ public:
 		((Real, interfaceWorkDem, 0, Attr::readonly, "Work done by the particles on the structure, integrated on the DEM side over every DEM step: sum of nodal force . nodal velocity * dt [J]."))
 		((Real, interfaceWorkFem, 0, Attr::readonly, "Work of the forces the FEM received, along the FEM's nodal displacements over each window: sum of F_sent . (P_end - P_start) [J]."))
 		((Real, bridgeTime, 0, Attr::readonly, "Time spent in the exchanges (encoding, ZeroMQ transfer, decoding) [s], excluding waits for the FEM solver."))
-		((Real, mappingTime, 0, Attr::readonly, "Time spent lumping facet contact forces to the nodes [s] (every DEM step when averaging or auditing energy, else once per window)."))
+		((Real, mappingTime, 0, Attr::readonly, "Time spent lumping facet contact forces to the nodes [s] (every DEM step when averaging or auditing energy, else once per window; once per window for ``polyhedra``)."))
+		((Real, polyhedraTime, 0, Attr::readonly, "``polyhedra`` model: time spent advancing the polyhedra system's windows [s] (the DEM itself)."))
 		((Real, waitTime, 0, Attr::readonly, "Time spent waiting for the FEM solver [s]."))
 		((bool, connected, false, Attr::readonly, "Whether the handshake with the FEM participant is done."))
 		, /* ctor */
@@ -94,12 +114,18 @@ public:
   DECLARE_LOGGER;
 
 private:
+  enum class Model { Facets, MeshContacts, Polyhedra };
   void placeSurface(Real tau, bool beforeIntegrator);
   void accumulateStep();
-  bool meshContacts() const;
-  bool exchange(); // false: the scheme repeats the window
+  Model surfaceModel() const;
+  std::vector<double> windowForces(); // facets / meshContacts: what the window sends
+  bool exchange(std::vector<double> forces); // false: the scheme repeats the window
   void saveCheckpoint();
   void restoreCheckpoint();
+  void polyhedraAction();
+  void startPolyhedraWindow();
+  void advancePolyhedraWindow();
+  shared_ptr<PolyhedraGpuEngine> findPolyhedraEngine() const;
 
   std::shared_ptr<railcosim::DemParticipant> participant;
   std::shared_ptr<railcosim::DemCouplingScheme> coupling;  // orders the messages, moves the surface, judges windows
@@ -114,6 +140,12 @@ private:
   SceneCheckpoint sceneCheckpoint;
   Real savedWorkDem = 0, savedWorkFem = 0;
   std::shared_ptr<const FemSurfaceContactEngine::History> savedHistory;
+  std::vector<std::pair<shared_ptr<QuaternionIntegrator>, std::vector<QuaternionIntegrator::BodySlot>>> savedIntegrators;
+  // contactModel 'polyhedra': the stones' engine, the window's linear surface motion and its forces.
+  shared_ptr<PolyhedraGpuEngine> polyhedra;
+  std::vector<double> windowStartPositions, windowVelocities; // 3 per node: P(t_i), (P(t_i+1) - P(t_i))/femDt
+  std::vector<double> polyhedraForces;                        // nodal forces of the window stepped last
+  std::vector<int32_t> interfaceTriangles;                    // 3 node indices each
 };
 REGISTER_SERIALIZABLE(FemCouplingEngine);
 

@@ -20,6 +20,7 @@ displacement it needs; NewtonIntegrator's own rotation options (exactAsphericalR
 ignored. Periodic cells are not supported.
 */
 class QuaternionIntegrator : public NewtonIntegrator {
+public:
   // Per-body data that must survive from one call (predict) to the next (correct).
   struct BodySlot {
     bool predicted = false;
@@ -30,12 +31,19 @@ class QuaternionIntegrator : public NewtonIntegrator {
     Vector3r writtenAngVel{Vector3r::Zero()};
     Quaternionr writtenOri{Quaternionr::Identity()};
   };
+  /// The per-body slots: what an engine that rolls the scene back to an earlier step (FemCouplingEngine, implicit
+  /// scheme) saves and restores with the body states, so that the first step after a rollback is the corrector of
+  /// the step before it, as in an uninterrupted run (restored body states alone would restart each body's scheme).
+  std::vector<BodySlot> integrationState() const { return slots; }
+  void restoreIntegrationState(std::vector<BodySlot> state) { slots = std::move(state); }
+  void action() override;
+
+private:
   std::vector<BodySlot> slots;
 
   void integrateBody(const shared_ptr<Body>& b, railcosim::kernels::RotationScheme rotationScheme);
 
 public:
-  void action() override;
   // clang-format off
 	YADE_CLASS_BASE_DOC_ATTRS_CTOR(QuaternionIntegrator,NewtonIntegrator,"Integrates the motion of spheres, clumps (sphere clusters) and facets like :yref:`NewtonIntegrator`, with velocity Verlet for translation and, for :yref:`aspherical<Body.aspherical>` bodies with free rotation, the Zhao–van Wachem quaternion predictor–corrector (default), quaternion RK4 with angular momentum as state, or the direct scheme (comparison only) — Irazábal 2017, §5.3.2. Bodies with any rotational DOF blocked, and non-aspherical bodies, rotate with the velocity-Verlet update of spheres. Clump forces and torques are assembled from members (eqs. 5.9–5.10), member torques (e.g. rolling friction) included. Attributes inherited from NewtonIntegrator other than gravity, damping, mask and kinSplit are not used.",
 		((std::string,scheme,"zhaoVanWachem",,"Rotation scheme for aspherical bodies: ``'zhaoVanWachem'`` (recommended), ``'rk4'`` or ``'direct'`` (inaccurate; for comparison only)."))

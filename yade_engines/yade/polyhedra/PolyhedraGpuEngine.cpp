@@ -1,8 +1,10 @@
 // PolyhedraGpuEngine: hands YADE's polyhedra to the dilated-polyhedra system, advances it in batches, syncs back.
 #include "PolyhedraGpuEngine.hpp"
 
+#include "../contact/BallastContact.hpp"
 #include "polyhedra/PolyhedraShapes.hpp"
 #include "polyhedra/PolyhedraSystem.hpp"
+#include "railcosim/Error.hpp"
 
 #include <core/Scene.hpp>
 #include <core/State.hpp>
@@ -10,6 +12,7 @@
 #include <pkg/dem/FrictPhys.hpp>
 #include <pkg/dem/NewtonIntegrator.hpp>
 
+#include <fstream>
 #include <map>
 
 namespace yade {
@@ -17,9 +20,13 @@ namespace yade {
 YADE_PLUGIN((PolyhedraGpuEngine));
 CREATE_LOGGER(PolyhedraGpuEngine);
 
+PolyhedraSurfaceSource::~PolyhedraSurfaceSource() = default;
+
 namespace {
 namespace poly = railcosim::polyhedra;
 Quaternionr quaternion(const double* wxyz) { return Quaternionr(wxyz[0], wxyz[1], wxyz[2], wxyz[3]); }
+Vector3r toVector3r(const double* xyz) { return Vector3r(xyz[0], xyz[1], xyz[2]); }
+Vector3r toVector3r(const std::array<double, 3>& xyz) { return Vector3r(xyz[0], xyz[1], xyz[2]); }
 
 poly::Backend parseBackend(const std::string& name) {
   if (name == "automatic") return poly::Backend::Automatic;
@@ -28,18 +35,75 @@ poly::Backend parseBackend(const std::string& name) {
   throw std::invalid_argument("PolyhedraGpuEngine.backend='" + name +
                               "' is not known; use 'automatic', 'cpu' or 'cuda'.");
 }
+
+// A YADE material as the polyhedra library takes it, through the one material-to-law conversion of the contact plugin
+// (contactMaterialOf): every attribute of a BallastMat; a FrictMat's moduli and friction with `restitution`.
+poly::Material polyhedraMaterial(const Material& material, const std::string& owner, Real restitution) {
+  railcosim::kernels::ContactMaterial m = contactMaterialOf(material, "PolyhedraGpuEngine: " + owner);
+  if (!dynamic_cast<const BallastMat*>(&material)) m.restitution = restitution;
+  railcosim::kernels::validate(m, "PolyhedraGpuEngine: " + owner);
+  return poly::materialOf(m);
+}
+
+// {body id: the stone's 3 values of `perStone`} for Python.
+boost::python::dict byBodyId(const std::vector<Body::id_t>& ids, const std::vector<double>& perStone) {
+  boost::python::dict result;
+  for (size_t i = 0; i < ids.size(); ++i) result[ids[i]] = toVector3r(&perStone[3 * i]);
+  return result;
+}
 } // namespace
 
 PolyhedraGpuEngine::~PolyhedraGpuEngine() = default;
 
-void PolyhedraGpuEngine::addStone(Body::id_t id, const std::vector<Vector3r>& vertices) {
+void PolyhedraGpuEngine::addStone(Body::id_t id, const std::vector<Vector3r>& vertices, Real stoneDilationRadius) {
   if (system) throw std::runtime_error("PolyhedraGpuEngine.addStone: stones can only be added before the first step.");
   if (id < 0 || id >= static_cast<Body::id_t>(scene->bodies->size()) || !(*scene->bodies)[id])
     throw std::invalid_argument("PolyhedraGpuEngine.addStone: no body #" + std::to_string(id) + " in the scene.");
   if (vertices.size() < 4)
     throw std::invalid_argument("PolyhedraGpuEngine.addStone: a convex core needs at least 4 vertices.");
+  if (!(stoneDilationRadius > 0) && stoneDilationRadius != -1)
+    throw std::invalid_argument("PolyhedraGpuEngine.addStone: dilationRadius must be positive [m] (or left out).");
   stoneIds.push_back(id);
   stoneCores.push_back(vertices);
+  stoneDilation.push_back(stoneDilationRadius);
+}
+
+Real PolyhedraGpuEngine::dilatedVolume(const std::vector<Vector3r>& vertices, Real dilationRadius) {
+  std::vector<double> points;
+  for (const Vector3r& v : vertices)
+    for (int k = 0; k < 3; ++k) points.push_back(v[k]);
+  try {
+    poly::Parameters parameters;
+    parameters.backend = poly::Backend::Cpu;
+    poly::PolyhedraSystem system(parameters);
+    return system.shapeProperties(system.addShape(poly::convexHullTemplate(points, dilationRadius, 1.0))).dilatedVolume;
+  } catch (const railcosim::Error& e) {
+    throw std::invalid_argument(std::string("PolyhedraGpuEngine.dilatedVolume: ") + e.what());
+  }
+}
+
+void PolyhedraGpuEngine::attachSurface(const std::vector<int32_t>& triangles, const std::vector<double>& coordinates,
+                                       const shared_ptr<Material>& material, Real restitution) {
+  if (system)
+    throw std::runtime_error(
+        "PolyhedraGpuEngine: a coupled surface must be attached before the engine is initialized (it was initialized "
+        "before the FemCouplingEngine connected; put both engines in O.engines before the first step, or call "
+        "FemCouplingEngine.connect() before PolyhedraGpuEngine.initialize()).");
+  if (hasSurface())
+    throw std::runtime_error("PolyhedraGpuEngine: a coupled surface is already attached; one FemCouplingEngine with "
+                             "contactModel='polyhedra' per polyhedra engine.");
+  checkSurfaceMaterial(material, restitution); // refused now rather than at initialization
+  surfaceConnectivity = triangles;
+  surfaceCoordinates = coordinates;
+  surfaceMaterial = material;
+  surfaceRestitution = restitution;
+  surfaceNodes = static_cast<int>(coordinates.size() / 3);
+  surfaceTriangles = static_cast<int>(triangles.size() / 3);
+}
+
+void PolyhedraGpuEngine::checkSurfaceMaterial(const shared_ptr<Material>& material, Real restitution) {
+  if (!material) throw std::invalid_argument("PolyhedraGpuEngine: the coupled surface has no material.");
+  polyhedraMaterial(*material, "the coupled surface's material", restitution);
 }
 
 void PolyhedraGpuEngine::initialize() {
@@ -52,24 +116,41 @@ void PolyhedraGpuEngine::initialize() {
     if (boost::dynamic_pointer_cast<NewtonIntegrator>(engine))
       throw std::invalid_argument("PolyhedraGpuEngine integrates the stones itself: remove " + engine->getClassName() +
                                   " from O.engines (it would move the stones a second time).");
+  // A coupling engine's surface joins the walls; it may have to connect to the FEM side first.
+  for (const auto& engine : scene->engines)
+    if (auto* source = dynamic_cast<PolyhedraSurfaceSource*>(engine.get())) source->attachPolyhedraSurface();
+  if (system) return; // attaching initialized this engine (a coupling engine that drives it)
 
   // 1. Stones: the registered bodies; the first one's material stands for all.
   if (stoneIds.empty())
     throw std::invalid_argument("PolyhedraGpuEngine: no stones; register them with addStone(id, vertices) first.");
-  const FrictMat* material = dynamic_cast<const FrictMat*>((*scene->bodies)[stoneIds.front()]->material.get());
-  if (!material) throw std::invalid_argument("PolyhedraGpuEngine: the stones need a FrictMat material.");
+  const shared_ptr<Material>& stoneMaterial = (*scene->bodies)[stoneIds.front()]->material;
+  if (!stoneMaterial) throw std::invalid_argument("PolyhedraGpuEngine: the first stone has no material.");
+  for (Body::id_t id : stoneIds)
+    if ((*scene->bodies)[id]->material != stoneMaterial) {
+      LOG_WARN("PolyhedraGpuEngine: stones have different materials; the first stone's ("
+               << stoneMaterial->getClassName() << " '" << stoneMaterial->label << "') is used for all.");
+      break;
+    }
+  const auto* frict = dynamic_cast<const FrictMat*>(stoneMaterial.get());
+  if (!frict)
+    throw std::invalid_argument("PolyhedraGpuEngine: the stones need a FrictMat or BallastMat material, got a " +
+                                stoneMaterial->getClassName() + ".");
 
   poly::Parameters parameters;
   parameters.timeStep = scene->dt;
   parameters.gravity = {gravity[0], gravity[1], gravity[2]};
-  parameters.stone = {material->young, material->poisson, restitution, std::tan(material->frictionAngle)};
+  parameters.stone = polyhedraMaterial(*stoneMaterial, "the stones' material", restitution);
   parameters.wall = parameters.stone;
   parameters.rebuildInterval = rebuildInterval;
+  parameters.neighbourSkin = neighbourSkin;
   parameters.adaptiveRebuild = adaptiveRebuild;
+  parameters.maxNeighbours = maxNeighbours;
+  parameters.maxWallNeighbours = maxWallNeighbours;
   parameters.backend = parseBackend(backend);
   system = std::make_shared<poly::PolyhedraSystem>(parameters);
 
-  // 2. One template per distinct core (vertices in the body frame, compared exactly).
+  // 2. One template per distinct core and dilation (vertices in the body frame, compared exactly).
   std::map<std::vector<double>, int> templateOf;
   principalToBody.clear();
   centroidInBody.clear();
@@ -77,17 +158,18 @@ void PolyhedraGpuEngine::initialize() {
     std::vector<double> vertices;
     for (const Vector3r& v : stoneCores[i])
       for (int k = 0; k < 3; ++k) vertices.push_back(v[k]);
-    auto found = templateOf.find(vertices);
+    const double radius = stoneDilation[i] > 0 ? stoneDilation[i] : dilationRadius;
+    std::vector<double> key = vertices;
+    key.push_back(radius);
+    auto found = templateOf.find(key);
     if (found == templateOf.end())
-      found = templateOf
-                  .emplace(vertices,
-                           system->addShape(poly::convexHullTemplate(vertices, dilationRadius, material->density)))
-                  .first;
+      found = templateOf.emplace(key, system->addShape(poly::convexHullTemplate(vertices, radius, frict->density))).first;
     const int shapeIndex = found->second;
     const poly::ShapeProperties& props = system->shapeProperties(shapeIndex);
     const Quaternionr toBody = quaternion(props.principalToGiven.data());
     const Vector3r centroid(props.centroid[0], props.centroid[1], props.centroid[2]);
-    const State& s = *(*scene->bodies)[stoneIds[i]]->state;
+    State& s = *(*scene->bodies)[stoneIds[i]]->state;
+    s.mass = props.mass; // the dilated stone's, for momentum and energy sums over the YADE bodies
     const Vector3r position = s.pos + s.ori * centroid;
     const Quaternionr ori = s.ori * toBody;
     const Vector3r velocity = s.vel + s.angVel.cross(position - s.pos);
@@ -97,26 +179,64 @@ void PolyhedraGpuEngine::initialize() {
     centroidInBody.push_back(centroid);
   }
 
-  // 3. Facets are fixed triangle walls (each facet's three vertices; shared nodes need not be merged).
+  // 3. Walls: the facets (each facet's three vertices; shared nodes need not be merged), then the coupled surface.
+  //    Materials: one per distinct facet material, the surface's last.
   std::vector<double> coordinates;
-  std::vector<std::int32_t> triangles;
+  std::vector<std::int32_t> triangles, materialOfTriangle;
+  std::vector<poly::Material> materials;
+  std::map<const Material*, int> materialIndex;
+  facetOfTriangle.clear();
   for (const auto& b : *scene->bodies) {
     const auto* facet = b ? dynamic_cast<const Facet*>(b->shape.get()) : nullptr;
     if (!facet) continue;
+    if (!b->material) throw std::invalid_argument("PolyhedraGpuEngine: facet #" + std::to_string(b->id) + " has no material.");
+    auto known = materialIndex.find(b->material.get());
+    if (known == materialIndex.end()) {
+      known = materialIndex.emplace(b->material.get(), static_cast<int>(materials.size())).first;
+      materials.push_back(polyhedraMaterial(*b->material, "facet #" + std::to_string(b->id), restitution));
+    }
     for (int j = 0; j < 3; ++j) {
       const Vector3r world = b->state->pos + b->state->ori * facet->vertices[j];
       for (int k = 0; k < 3; ++k) coordinates.push_back(world[k]);
       triangles.push_back(static_cast<std::int32_t>(triangles.size()));
     }
+    materialOfTriangle.push_back(known->second);
+    facetOfTriangle.push_back(b->id);
   }
-  if (!triangles.empty()) system->setWalls(coordinates, triangles);
+  facetNodes = coordinates;
+  surfaceFirstTriangle = static_cast<int>(facetOfTriangle.size());
+  if (hasSurface()) {
+    const auto firstNode = static_cast<std::int32_t>(coordinates.size() / 3);
+    coordinates.insert(coordinates.end(), surfaceCoordinates.begin(), surfaceCoordinates.end());
+    for (int32_t node : surfaceConnectivity) triangles.push_back(firstNode + node);
+    materialOfTriangle.insert(materialOfTriangle.end(), surfaceTriangles, static_cast<int32_t>(materials.size()));
+    materials.push_back(polyhedraMaterial(*surfaceMaterial, "the coupled surface's material", surfaceRestitution));
+  }
+  if (materials.size() > static_cast<size_t>(poly::maxWallMaterials))
+    throw std::invalid_argument("PolyhedraGpuEngine: " + std::to_string(materials.size()) +
+                                " wall materials (distinct facet materials" +
+                                (hasSurface() ? std::string(" and the coupled surface's") : std::string()) +
+                                "), at most " + std::to_string(poly::maxWallMaterials) +
+                                "; give the facets fewer distinct materials.");
+  if (!triangles.empty()) {
+    system->setWalls(coordinates, triangles);
+    system->setWallMaterials(materials, materialOfTriangle);
+  }
 
   stones = static_cast<int>(stoneIds.size());
   shapes = static_cast<int>(templateOf.size());
+  wallTriangles = static_cast<int>(triangles.size() / 3);
   activeBackend = poly::backendName(system->activeBackend());
   backendReason = system->backendReason();
-  LOG_INFO("PolyhedraGpuEngine: " << stones << " stones, " << shapes << " shapes, " << triangles.size() / 3
-                                  << " wall triangles on " << activeBackend << " (" << backendReason << ")");
+  LOG_INFO("PolyhedraGpuEngine: " << stones << " stones, " << shapes << " shapes, " << surfaceFirstTriangle
+                                  << " facet triangles, " << surfaceTriangles << " coupled surface triangles on "
+                                  << activeBackend << " (" << backendReason << ")");
+}
+
+void PolyhedraGpuEngine::requireSystem(const char* what) const {
+  if (!system)
+    throw std::runtime_error(std::string("PolyhedraGpuEngine.") + what +
+                             ": the engine is not initialized yet (run a step or call initialize()).");
 }
 
 void PolyhedraGpuEngine::syncBack() {
@@ -136,12 +256,103 @@ void PolyhedraGpuEngine::syncBack() {
 
 void PolyhedraGpuEngine::action() {
   initialize();
+  if (hasSurface()) return; // the coupling engine advances the stones, one window per batch
   // Advance a whole batch on the last iteration of it, so that the bodies match the scene time after it.
   if ((scene->iter + 1) % syncInterval != 0) return;
   system->setTimeStep(scene->dt);
   system->setGravity({gravity[0], gravity[1], gravity[2]});
   system->step(syncInterval);
   meanContacts = system->lastStatistics().meanActiveContacts;
+  syncBack();
+}
+
+void PolyhedraGpuEngine::advanceWindow(const std::vector<double>& positions, const std::vector<double>& velocities,
+                                       int steps, std::vector<double>& triangleForces,
+                                       std::vector<double>& contactPoints) {
+  initialize();
+  if (!hasSurface()) throw std::logic_error("PolyhedraGpuEngine::advanceWindow without a coupled surface.");
+  if (positions.size() != 3 * static_cast<size_t>(surfaceNodes) || velocities.size() != positions.size())
+    throw std::logic_error("PolyhedraGpuEngine::advanceWindow: surface kinematics of the wrong size.");
+  // The facets' nodes stay where they are; the surface's follow the window's motion.
+  std::vector<double> nodes = facetNodes, nodeVelocities(facetNodes.size(), 0.0);
+  nodes.insert(nodes.end(), positions.begin(), positions.end());
+  nodeVelocities.insert(nodeVelocities.end(), velocities.begin(), velocities.end());
+  system->setTimeStep(scene->dt);
+  system->setGravity({gravity[0], gravity[1], gravity[2]});
+  system->setSurfaceKinematics(nodes, nodeVelocities);
+  system->step(steps);
+  meanContacts = system->lastStatistics().meanActiveContacts;
+  syncBack();
+  const std::vector<double> forces = system->triangleForces(), points = system->triangleContactPoints();
+  const auto first = forces.begin() + 3 * surfaceFirstTriangle;
+  triangleForces.assign(first, first + 3 * surfaceTriangles);
+  contactPoints.assign(points.begin() + 3 * surfaceFirstTriangle,
+                       points.begin() + 3 * (surfaceFirstTriangle + surfaceTriangles));
+  surfaceForce = Vector3r::Zero();
+  for (int t = 0; t < surfaceTriangles; ++t) surfaceForce += toVector3r(&triangleForces[3 * t]);
+}
+
+void PolyhedraGpuEngine::saveSnapshot() {
+  initialize();
+  system->saveSnapshot();
+}
+
+void PolyhedraGpuEngine::restoreSnapshot() {
+  requireSystem("restoreSnapshot");
+  system->restoreSnapshot();
+  // The YADE bodies are the scene checkpoint's business; they hold the same state.
+}
+
+boost::python::list PolyhedraGpuEngine::contactsPy() {
+  requireSystem("contacts");
+  boost::python::list result;
+  for (const poly::ContactRecord& c : system->contacts()) {
+    boost::python::dict contact;
+    const bool surface = c.wall && c.second >= surfaceFirstTriangle;
+    contact["id1"] = stoneIds[c.first];
+    contact["id2"] = c.wall ? Body::id_t(-1) : stoneIds[c.second];
+    contact["triangle"] = c.wall ? c.second : -1;
+    contact["facet"] = c.wall && !surface ? facetOfTriangle[c.second] : Body::id_t(-1);
+    contact["surfaceTriangle"] = surface ? c.second - surfaceFirstTriangle : -1;
+    contact["point"] = toVector3r(c.point);
+    contact["normal"] = toVector3r(c.normal);
+    contact["force"] = toVector3r(c.force);
+    contact["overlap"] = c.overlap;
+    result.append(contact);
+  }
+  return result;
+}
+
+boost::python::dict PolyhedraGpuEngine::stoneForcesPy() {
+  requireSystem("stoneForces");
+  return byBodyId(stoneIds, system->forces());
+}
+
+boost::python::dict PolyhedraGpuEngine::stoneTorquesPy() {
+  requireSystem("stoneTorques");
+  return byBodyId(stoneIds, system->torques());
+}
+
+void PolyhedraGpuEngine::writeStatePy(const std::string& path) {
+  initialize();
+  std::ofstream out(path, std::ios::binary);
+  if (!out) throw std::runtime_error("PolyhedraGpuEngine.writeState: cannot open '" + path + "' for writing.");
+  try {
+    system->writeState(out);
+  } catch (const railcosim::Error& e) {
+    throw std::runtime_error(std::string("PolyhedraGpuEngine.writeState('") + path + "'): " + e.what());
+  }
+}
+
+void PolyhedraGpuEngine::readStatePy(const std::string& path) {
+  initialize();
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw std::runtime_error("PolyhedraGpuEngine.readState: cannot open '" + path + "'.");
+  try {
+    system->readState(in);
+  } catch (const railcosim::Error& e) {
+    throw std::runtime_error(std::string("PolyhedraGpuEngine.readState('") + path + "'): " + e.what());
+  }
   syncBack();
 }
 

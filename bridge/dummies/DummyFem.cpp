@@ -91,7 +91,8 @@ int main(int argc, char** argv) {
     std::vector<double> forces;
     std::vector<double> savedDisplacement, savedVelocity;
     while (maxWindows <= 0 || coupling->windowsReceived() < static_cast<std::uint64_t>(maxWindows)) {
-      if (!coupling->beginStep(forces)) break;
+      const FemCouplingScheme::Action action = coupling->beginStep(forces);
+      if (action == FemCouplingScheme::Action::Stop) break;
       if (maxWindows > 0 && coupling->window() >= static_cast<std::uint64_t>(maxWindows))
         break; // no step past the last window
       if (coupling->requiresWritingCheckpoint()) {

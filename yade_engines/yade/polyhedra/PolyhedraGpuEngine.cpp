@@ -145,4 +145,20 @@ void PolyhedraGpuEngine::action() {
   syncBack();
 }
 
+// RESTART HOOK (issue 17, item 1): once PolyhedraSystem::writeState(std::ostream&) / readState(std::istream&) exist,
+// restartState() returns initialize()'d system->writeState() as bytes and restoreRestartState() calls initialize()
+// then system->readState() on them (the stones' registration comes back with the rebuilt scene's addStone calls).
+// Until then a run with this engine refuses to checkpoint rather than resume from a state it cannot restore.
+boost::python::object PolyhedraGpuEngine::restartState() const {
+  throw std::runtime_error(
+      "PolyhedraGpuEngine: restart checkpoints are not supported yet (the polyhedra system cannot write its state: "
+      "PolyhedraSystem::writeState, issue 17); run without --checkpoint-every / --resume");
+}
+
+void PolyhedraGpuEngine::restoreRestartState(const boost::python::object&) {
+  throw std::runtime_error(
+      "PolyhedraGpuEngine: restart checkpoints are not supported yet (the polyhedra system cannot read its state: "
+      "PolyhedraSystem::readState, issue 17)");
+}
+
 } // namespace yade

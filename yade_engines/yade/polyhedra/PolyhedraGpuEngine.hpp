@@ -19,6 +19,10 @@ public:
   void action() override;
   void initialize();
   void addStone(Body::id_t id, const std::vector<Vector3r>& vertices);
+  /// Restart checkpoints (railcosim.dem.CoupledDem): the polyhedra system's state (stones, contact histories,
+  /// neighbour lists), which no attribute holds. Refused until PolyhedraSystem can write and read it (issue 17).
+  boost::python::object restartState() const;
+  void restoreRestartState(const boost::python::object& state);
   virtual ~PolyhedraGpuEngine();
 
   // clang-format off
@@ -51,6 +55,8 @@ public:
 		, /* py */
 		.def("initialize", &PolyhedraGpuEngine::initialize, "Hand the stones and walls to the polyhedra system now (otherwise done at the first step).")
 		.def("addStone", &PolyhedraGpuEngine::addStone, (py::arg("id"), py::arg("vertices")), "Register body *id* as a stone whose convex core has *vertices* (list of Vector3, body frame, m). Before the first step only.")
+		.def("restartState", &PolyhedraGpuEngine::restartState, "The polyhedra system's state (bytes) for a restart checkpoint. Not yet available: raises.")
+		.def("restoreRestartState", &PolyhedraGpuEngine::restoreRestartState, (py::arg("state")), "Put back what restartState() returned. Not yet available: raises.")
 	);
   // clang-format on
   DECLARE_LOGGER;

@@ -16,8 +16,9 @@ runner) and reads as its numbered physics steps around these calls:
 Restart checkpoints need nothing of the case: `railcosim run --checkpoint-every S` and `--resume DIR` set the
 environment (RESTART_ENVIRONMENT) that coupling_engine() hands to FemCouplingEngine; run() completes each checkpoint
 the engine orders (the scene, every engine's attributes and private state, this object's clock, the time series so
-far) and, in a resumed run, puts all of it back before the first step. A case's dem.py must keep its run state in
-the scene and its engines (not in Python variables that change during the run) and build the same scene again.
+far, `dem.state`) and, in a resumed run, puts all of it back before the first step. A case's dem.py must build the
+same scene again and keep whatever it accumulates during the run in the scene, its engines or `dem.state` (a dict of
+picklable values), not in Python variables that a resumed run would start afresh.
 
 Nothing here imports YADE at module level, so the runner side can read the engine options without it.
 """
@@ -164,6 +165,7 @@ class CoupledDem:
         self.time_origin = 0.0
         self.first_iter = 0
         self.wall_time_s = None
+        self.state = {}  # the case's own run state (counters, sums ...): restart checkpoints keep it
 
     def time_step(self):
         """The DEM step asked for: dem_dt, else dem_dt_safety times YADE's P-wave step of the bodies so far
@@ -254,7 +256,7 @@ class CoupledDem:
         from yade import O
         self.recorder.flush()
         state = {"engines": engine_states(O.engines), "time_origin": self.time_origin, "first_iter": self.first_iter,
-                 "windows_recorded": len(self.recorder)}
+                 "windows_recorded": len(self.recorder), "case": self.state}
         folder = self.coupling.completeCheckpoint([self.recorder.path], pickle.dumps(state))
         print(f"checkpoint {folder} at t={self.time:.4f} s, window {self.coupling.window}", flush=True)
 
@@ -265,6 +267,8 @@ class CoupledDem:
         state = pickle.loads(self.coupling.restoreCheckpoint())
         restore_engine_states(O.engines, state["engines"])
         self.time_origin, self.first_iter = state["time_origin"], state["first_iter"]
+        self.state.clear()
+        self.state.update(state["case"])
         self.recorder = results.DemRecorder(self.out, resume_windows=state["windows_recorded"])
         print(f"resumed from {self.coupling.resumeFrom} at t={self.time:.4f} s, window {self.coupling.window}, "
               f"step {O.iter}", flush=True)

@@ -10,12 +10,13 @@ import numpy as np
 
 def coupling_info(coupling):
     """The coupling engine's figures every case writes to dem_info.json: exchanges, costs, scheme,
-    interface work and, for the implicit scheme, the passes over the windows."""
+    interface work, for the implicit scheme the passes over the windows, and the wall time of restart checkpoints."""
     return {"subcycles": coupling.subcycles, "exchanges": coupling.exchanges, "scheme": coupling.scheme,
             "bridge_time_s": coupling.bridgeTime, "mapping_time_s": coupling.mappingTime, "wait_time_s": coupling.waitTime,
             "interface_work_dem_j": coupling.interfaceWorkDem, "interface_work_fem_j": coupling.interfaceWorkFem,
             "implicit_passes": coupling.implicitPasses, "max_window_passes": coupling.maxWindowPasses,
-            "unconverged_windows": coupling.unconvergedWindows, "checkpoint_time_s": coupling.checkpointTime}
+            "unconverged_windows": coupling.unconvergedWindows, "checkpoint_time_s": coupling.checkpointTime,
+            "restart_checkpoint_time_s": coupling.checkpointWriteTime}
 
 
 def force_fluctuation(times, force, span, reference):
@@ -81,6 +82,8 @@ class DemRecorder:
                                      f"{resume_windows}")
                 dataset.resize(resume_windows, axis=0)
                 self.blocks[name] = np.empty((self.block_windows, *dataset.shape[1:]))
+                if resume_windows > 0:
+                    self.last[name] = dataset[resume_windows - 1]  # as recorded (arrays for vectors)
 
     def __len__(self):
         return self.windows

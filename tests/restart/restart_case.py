@@ -8,6 +8,7 @@ Usage: restart_case.py RAILCOSIM CASE WORK --checkpoint-every S [--tolerance T] 
 """
 import argparse
 import glob
+import json
 import os
 import shutil
 import signal
@@ -101,9 +102,13 @@ def main():
         print(f"{name}: {'bit for bit' if not differences else f'largest relative difference {largest:.3e}'}")
         for key, d in sorted(differences.items(), key=lambda item: -item[1])[:10]:
             print(f"  {key}: {d:.3e}")
-    size = sum(os.path.getsize(p) for p in glob.glob(os.path.join(interrupted, "checkpoints", "*", "*")))
-    count = len(glob.glob(os.path.join(interrupted, "checkpoints", "window-*")))
-    print(f"resumed from {landed}; checkpoints kept: {count}, {size / 1e6:.2f} MB in all")
+    with open(os.path.join(interrupted, "summary.json")) as f:
+        resumed = json.load(f)["resumed_from"]
+    complete = glob.glob(os.path.join(interrupted, "checkpoints", "window-" + "[0-9]" * 8))
+    sizes = [sum(os.path.getsize(p) for p in glob.glob(os.path.join(folder, "*"))) for folder in complete]
+    print(f"killed after {landed}; resumed from {resumed['checkpoint']} (window {resumed['window']}, "
+          f"t = {resumed['time_s']:g} s); {len(complete)} complete checkpoints kept, "
+          f"{max(sizes, default=0) / 1e6:.2f} MB each at most")
     print(f"largest relative difference of the resumed run: {worst:.3e} (tolerance {args.tolerance:g})")
     if worst > args.tolerance:
         raise SystemExit("FAIL: the resumed run differs from the uninterrupted one")

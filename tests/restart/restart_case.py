@@ -3,8 +3,9 @@
 solvers (each whole process group) once the first checkpoint is complete, resume the run with --resume; the resumed
 run's results must equal the uninterrupted run's (tests/restart/compare_runs.py, bit for bit unless --tolerance).
 
-Usage: restart_case.py RAILCOSIM CASE WORK --checkpoint-every S [--tolerance T] [--reference DIR] [RUN OPTIONS...]
-  RUN OPTIONS (e.g. --smoke, --set k=v) go to every run; --reference takes an existing uninterrupted run instead.
+Usage: restart_case.py RAILCOSIM CASE WORK [--checkpoint-every S] [--tolerance T] [--reference DIR] [RUN OPTIONS...]
+  RUN OPTIONS (e.g. --smoke, --set k=v) go to every run; --reference takes an existing uninterrupted run instead;
+  --checkpoint-every defaults to a quarter of the run's duration_s, so that the first checkpoint lands early.
 """
 import argparse
 import glob
@@ -17,8 +18,10 @@ import sys
 import time
 
 HERE = os.path.dirname(os.path.abspath(__file__))
-sys.path.insert(0, HERE)
+sys.path[:0] = [HERE, os.path.join(os.path.dirname(os.path.dirname(HERE)), "python")]
 import compare_runs  # noqa: E402
+from railcosim import parameters  # noqa: E402
+from railcosim.case import load_case  # noqa: E402
 
 # The first checkpoint lands a few seconds into a smoke run; this is the wait for it on a loaded machine.
 CHECKPOINT_WAIT_S = 120.0
@@ -58,7 +61,7 @@ def interrupt(railcosim, case, out, every, options):
     while not landed and runner.poll() is None and time.monotonic() < deadline:
         # A complete checkpoint is a folder named window-NNNNNNNN (its staging folder ends in .partial).
         landed = glob.glob(out + ".partial-*/checkpoints/window-[0-9][0-9][0-9][0-9][0-9][0-9][0-9][0-9]/manifest.json")
-        time.sleep(0.05)
+        time.sleep(0.01)
     if not landed:
         runner.kill()
         raise SystemExit(f"FAIL: no checkpoint was complete within {CHECKPOINT_WAIT_S:.0f} s "
@@ -79,10 +82,15 @@ def main():
     parser.add_argument("railcosim")
     parser.add_argument("case")
     parser.add_argument("work")
-    parser.add_argument("--checkpoint-every", type=float, required=True)
+    parser.add_argument("--checkpoint-every", type=float)
     parser.add_argument("--tolerance", type=float, default=0.0)
     parser.add_argument("--reference")
     args, options = parser.parse_known_args()
+    if args.checkpoint_every is None:
+        # The case's own duration, as the runner resolves it for these options (--smoke, --set).
+        sets = [options[k + 1] for k, option in enumerate(options[:-1]) if option == "--set"]
+        config, _ = load_case(os.path.abspath(args.case))
+        args.checkpoint_every = parameters.resolve_parameters(config, "--smoke" in options, sets)["duration_s"] / 4
     shutil.rmtree(args.work, ignore_errors=True)
     os.makedirs(args.work)
     reference = args.reference

@@ -669,9 +669,12 @@ def main(argv, guard):
     for recording in (args.replay_fem, args.replay_dem):
         if recording and not os.path.isfile(recording):
             raise CaseError(f"no such recording: {recording} (made by ./railcosim run CASE --record)")
-    if (args.checkpoint_every is not None or args.resume) and (args.record or args.replay_fem or args.replay_dem):
-        raise CaseError("--checkpoint-every and --resume do not combine with --record or --replay-*: a recording "
-                        "covers one process's run from its handshake")
+    replaying = args.replay_fem or args.replay_dem
+    if args.resume and (args.record or replaying):
+        raise CaseError("--resume does not combine with --record or --replay-*: a recording covers one run from its "
+                        "first window")
+    if args.checkpoint_every is not None and replaying:
+        raise CaseError("--checkpoint-every does not combine with --replay-*: the played-back side saves no state")
     if args.resume:
         if args.out or args.force:
             raise CaseError("--resume DIR continues in DIR: --out and --force do not apply")

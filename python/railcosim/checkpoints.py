@@ -84,6 +84,11 @@ def resume_checkpoint(folder, name, params):
         raise ResumeRefused(f"--resume {folder}: not a results folder of a run (no parameters.json)")
     with open(parameters_path) as f:
         saved = json.load(f)
+    saved_case = os.path.basename(str(saved.get("case_dir", "")))
+    if saved_case and saved_case != os.path.basename(params.get("case_dir", "")):
+        raise ResumeRefused(f"--resume {folder}: the interrupted run was of case {saved_case}, not of "
+                            f"{os.path.basename(params.get('case_dir', ''))}; resume it with ./railcosim run "
+                            f"cases/{saved_case} --resume {folder}")
     differences = _differences(saved, params)
     if differences:
         shown = "; ".join(f"{key} = {old!r} there, {new!r} here" for key, old, new in differences[:3])

@@ -211,7 +211,8 @@ class RefusalTest(RestartTestCase):
         self.assertRefused("other parameters", "windows = 400 there, 500 here", options=("--set", "windows=500"))
 
     def test_other_case(self):
-        self.assertRefused("other parameters", case=os.path.join(ROOT, "tests", "launcher", "standin_case"))
+        self.assertRefused("the interrupted run was of case dummy_case, not of standin_case",
+                           case=os.path.join(ROOT, "tests", "launcher", "standin_case"))
 
     def test_checkpoint_of_another_run(self):
         self.edit_manifest(lambda m: m.update(run="case=another parameters=sha256:0"))

@@ -106,13 +106,18 @@ double SpringMass::advance(double& displacement, double& velocity, double force,
   return (force - stiffness * displacement) / mass;
 }
 
-ParticipantConfig participantConfig(const Options& options, CouplingScheme scheme) {
+ParticipantConfig participantConfig(const Options& options, CouplingScheme scheme,
+                                    const std::optional<ResumedState>& resumed) {
   ParticipantConfig config;
   config.name = options.text("name");
   config.endpoint = options.text("endpoint");
   config.timeoutSeconds = options.number("timeout");
   config.heartbeatSeconds = options.number("heartbeat");
   config.couplingScheme = toString(scheme);
+  if (resumed) {
+    config.resumedFrom = resumed->manifest.name;
+    config.resumedWindow = resumed->manifest.window;
+  }
   return config;
 }
 

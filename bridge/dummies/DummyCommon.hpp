@@ -54,8 +54,6 @@ struct SpringMass {
   double advance(double& displacement, double& velocity, double force, double dt) const;
 };
 
-/// The participant settings both stand-ins take from --name, --endpoint, --timeout, --heartbeat.
-ParticipantConfig participantConfig(const Options& options, CouplingScheme scheme);
 
 /// Restart checkpoints of a stand-in, in the folders `railcosim run` sets (CheckpointSettings::fromEnvironment):
 /// the checkpoint resumed from (checked: manifest, sizes, CRC-32) and this side's state file in it.
@@ -65,6 +63,10 @@ struct ResumedState {
 };
 /// Empty unless RAILCOSIM_RESUME names a checkpoint; `file` is the side's state file in it.
 std::optional<ResumedState> resumedState(const std::string& file);
+/// The participant settings both stand-ins take from --name, --endpoint, --timeout, --heartbeat, and the checkpoint
+/// they resumed from, if any (announced at the handshake).
+ParticipantConfig participantConfig(const Options& options, CouplingScheme scheme,
+                                    const std::optional<ResumedState>& resumed = std::nullopt);
 /// Writes `state` as `file` into the staging folder of checkpoint `name` and describes it.
 CheckpointFile writeStateFile(const std::string& name, const std::string& file, const std::string& side,
                               const std::string& state);

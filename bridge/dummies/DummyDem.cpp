@@ -76,13 +76,8 @@ int main(int argc, char** argv) {
     model.mass = options.number("mass");
     model.stiffness = options.number("stiffness");
 
-    ParticipantConfig config = dummy::participantConfig(options, scheme);
     const auto resumed = dummy::resumedState(stateFile);
-    if (resumed) {
-      config.resumedFrom = resumed->manifest.name;
-      config.resumedWindow = resumed->manifest.window;
-    }
-    DemParticipant participant(config);
+    DemParticipant participant(dummy::participantConfig(options, scheme, resumed));
     const InterfaceSetup setup = participant.initialize();
     const std::size_t nodes = setup.mesh.nodeCount();
     const double dt = setup.femTimeStep;

@@ -79,7 +79,6 @@ int main(int argc, char** argv) {
 
     std::vector<double> savedDisplacement, savedVelocity;
     std::uint64_t passes = 0; // FEM solves (a scheme that repeats windows solves a window once per pass)
-    ParticipantConfig config = dummy::participantConfig(options, scheme);
     const auto resumed = dummy::resumedState(stateFile);
     std::string schemeState;
     if (resumed) {
@@ -95,10 +94,8 @@ int main(int argc, char** argv) {
       state = saved.kinematics();
       schemeState = saved.bytes();
       if (displacement.size() != nodes) saved.fail("the state is of " + std::to_string(displacement.size()) + " nodes");
-      config.resumedFrom = resumed->manifest.name;
-      config.resumedWindow = resumed->manifest.window;
     }
-    FemParticipant participant(config);
+    FemParticipant participant(dummy::participantConfig(options, scheme, resumed));
     participant.initialize(mesh, dt, state);
 
     // One FEM step t_i -> t_i+1 with the vertical nodal forces in appliedForce.

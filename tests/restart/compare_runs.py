@@ -82,13 +82,8 @@ def compare(reference, other):
     return report
 
 
-def main():
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("reference")
-    parser.add_argument("other")
-    parser.add_argument("--tolerance", type=float, default=0.0)
-    args = parser.parse_args()
-    report = compare(args.reference, args.other)
+def print_report(report):
+    """Prints compare()'s report, file by file; returns the largest relative difference of all."""
     worst = 0.0
     for name, differences in report.items():
         largest = max(differences.values(), default=0.0)
@@ -96,6 +91,16 @@ def main():
         print(f"{name}: {'bit for bit' if not differences else f'largest relative difference {largest:.3e}'}")
         for key, d in sorted(differences.items(), key=lambda item: -item[1])[:10]:
             print(f"  {key}: {d:.3e}")
+    return worst
+
+
+def main():
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("reference")
+    parser.add_argument("other")
+    parser.add_argument("--tolerance", type=float, default=0.0)
+    args = parser.parse_args()
+    worst = print_report(compare(args.reference, args.other))
     print(f"largest relative difference: {worst:.3e} (tolerance {args.tolerance:g})")
     return 0 if worst <= args.tolerance else 1
 

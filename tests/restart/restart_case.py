@@ -25,6 +25,8 @@ from railcosim.case import load_case  # noqa: E402
 
 # The first checkpoint lands a few seconds into a smoke run; this is the wait for it on a loaded machine.
 CHECKPOINT_WAIT_S = 120.0
+# A complete checkpoint is a folder named window-NNNNNNNN (its staging folder ends in .partial).
+COMPLETE = "window-" + "[0-9]" * 8
 
 
 def run(command, **kwargs):
@@ -59,8 +61,7 @@ def interrupt(railcosim, case, out, every, options):
     deadline = time.monotonic() + CHECKPOINT_WAIT_S
     landed = []
     while not landed and runner.poll() is None and time.monotonic() < deadline:
-        # A complete checkpoint is a folder named window-NNNNNNNN (its staging folder ends in .partial).
-        landed = glob.glob(out + ".partial-*/checkpoints/window-[0-9][0-9][0-9][0-9][0-9][0-9][0-9][0-9]/manifest.json")
+        landed = glob.glob(os.path.join(out + ".partial-*", "checkpoints", COMPLETE, "manifest.json"))
         time.sleep(0.01)
     if not landed:
         runner.kill()
@@ -102,17 +103,10 @@ def main():
                                     args.checkpoint_every, options)
     if run([args.railcosim, "run", args.case, "--resume", interrupted] + options) != 0:
         raise SystemExit("FAIL: the resumed run failed")
-    report = compare_runs.compare(reference, interrupted)
-    worst = 0.0
-    for name, differences in report.items():
-        largest = max(differences.values(), default=0.0)
-        worst = max(worst, largest)
-        print(f"{name}: {'bit for bit' if not differences else f'largest relative difference {largest:.3e}'}")
-        for key, d in sorted(differences.items(), key=lambda item: -item[1])[:10]:
-            print(f"  {key}: {d:.3e}")
+    worst = compare_runs.print_report(compare_runs.compare(reference, interrupted))
     with open(os.path.join(interrupted, "summary.json")) as f:
         resumed = json.load(f)["resumed_from"]
-    complete = glob.glob(os.path.join(interrupted, "checkpoints", "window-" + "[0-9]" * 8))
+    complete = glob.glob(os.path.join(interrupted, "checkpoints", COMPLETE))
     sizes = [sum(os.path.getsize(p) for p in glob.glob(os.path.join(folder, "*"))) for folder in complete]
     print(f"killed after {landed}; resumed from {resumed['checkpoint']} (window {resumed['window']}, "
           f"t = {resumed['time_s']:g} s); {len(complete)} complete checkpoints kept, "

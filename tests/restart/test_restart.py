@@ -21,8 +21,8 @@ HERE = os.path.dirname(os.path.abspath(__file__))
 ROOT = os.path.dirname(os.path.dirname(HERE))
 RUNNER = os.path.join(ROOT, "tools", "run_case.py")
 CASE = os.path.join(HERE, "dummy_case")
-# A complete checkpoint folder; its staging folder ends in .partial.
-COMPLETE = "window-" + "[0-9]" * 8
+sys.path.insert(0, HERE)
+from restart_case import COMPLETE, children  # noqa: E402  (the solvers of a runner; a complete checkpoint folder)
 # Waits for what takes well under a second on an idle machine, on a loaded 2-core one.
 SLOW_S = 30.0
 
@@ -41,20 +41,6 @@ def run(*arguments, case=CASE):
     done = subprocess.run([sys.executable, RUNNER, case, *arguments], env=environment(), capture_output=True, text=True,
                           timeout=120)
     return done.returncode, done.stdout, done.stderr
-
-
-def children(pid):
-    found = []
-    for entry in os.listdir("/proc"):
-        if entry.isdigit():
-            try:
-                with open(f"/proc/{entry}/stat") as f:
-                    fields = f.read().rsplit(")", 1)[1].split()
-            except OSError:
-                continue
-            if int(fields[1]) == pid and fields[0] != "Z":
-                found.append(int(entry))
-    return found
 
 
 def run_and_kill(out, *arguments):

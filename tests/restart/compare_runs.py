@@ -1,6 +1,6 @@
 #!/usr/bin/python3
-"""Compares the results of two runs of a case: summary.json, dem_info.json and fem/fem_summary.json value by value and
-timeseries.h5 dataset by dataset, leaving out what measures the machine (wall times, costs) or the run's history
+"""Compares the results of two runs of a case: summary.json, dem_info.json and fem/fem_summary.json value by value,
+timeseries.h5 dataset by dataset and a stand-in solver's result file as text, leaving out what measures the machine (wall times, costs) or the run's history
 (solvers, checkpoints, resumption). Prints the largest relative difference per file and the keys that differ.
 
 Usage: compare_runs.py REFERENCE_DIR OTHER_DIR [--tolerance T]   (exit 1 when a value differs by more than T, default 0)
@@ -73,12 +73,25 @@ def compare_h5(path_a, path_b):
     return differences
 
 
+def compare_text(path_a, path_b):
+    with open(path_a) as f, open(path_b) as g:
+        return {} if f.read() == g.read() else {"text": math.inf}
+
+
+# The result files a run may have (a stand-in solver's exact figures among them); one absent from both is skipped.
+RESULTS = {"summary.json": compare_json, "dem_info.json": compare_json,
+           os.path.join("fem", "fem_summary.json"): compare_json, "timeseries.h5": compare_h5,
+           "fem_result.txt": compare_text, "dem_result.txt": compare_text}
+
+
 def compare(reference, other):
-    """{file: {key: relative difference}} for the files of two results folders (only the keys that differ)."""
+    """{file: {key: relative difference}} for the result files of two results folders (only the keys that differ)."""
     report = {}
-    for name in ("summary.json", "dem_info.json", os.path.join("fem", "fem_summary.json")):
-        report[name] = compare_json(os.path.join(reference, name), os.path.join(other, name))
-    report["timeseries.h5"] = compare_h5(os.path.join(reference, "timeseries.h5"), os.path.join(other, "timeseries.h5"))
+    for name, compare_file in RESULTS.items():
+        a, b = os.path.join(reference, name), os.path.join(other, name)
+        if not os.path.exists(a) and not os.path.exists(b):
+            continue
+        report[name] = compare_file(a, b) if os.path.exists(a) and os.path.exists(b) else {"present": math.inf}
     return report
 
 

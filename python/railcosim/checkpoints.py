@@ -82,6 +82,15 @@ def resume_checkpoint(folder, name, params):
     parameters_path = os.path.join(folder, "parameters.json")
     if not os.path.isfile(parameters_path):
         raise ResumeRefused(f"--resume {folder}: not a results folder of a run (no parameters.json)")
+    summary_path = os.path.join(folder, "summary.json")
+    if os.path.isfile(summary_path):
+        with open(summary_path) as f:
+            try:
+                status = json.load(f).get("status")
+            except ValueError:
+                status = None
+        if status == "ok":
+            raise ResumeRefused(f"--resume {folder}: that run finished (status ok); there is nothing to resume")
     with open(parameters_path) as f:
         saved = json.load(f)
     saved_case = os.path.basename(str(saved.get("case_dir", "")))

@@ -246,7 +246,8 @@ class CoupledDem:
         else:
             self.recorder = results.DemRecorder(self.out)  # dem_timeseries.h5, written as the run goes
         last_iter = self.first_iter + self.windows * coupling.subcycles + 1
-        O.run(max(0, last_iter - O.iter), True)
+        if last_iter > O.iter:  # O.run(0) would run on without end; a run resumed at its last window has no step left
+            O.run(last_iter - O.iter, True)
         coupling.finalize()
         self.wall_time_s = time.monotonic() - wall_start
 

@@ -204,6 +204,14 @@ class RefusalTest(RestartTestCase):
         self.edit_manifest(lambda m: m.update(run="case=another parameters=sha256:0"))
         self.assertRefused("belongs to another run")
 
+    def test_finished_run(self):
+        path = os.path.join(self.folder, "summary.json")
+        summary = json.loads(read(path))
+        summary["status"] = "ok"
+        with open(path, "w") as f:
+            json.dump(summary, f)
+        self.assertRefused("that run finished (status ok); there is nothing to resume")
+
     def test_not_a_results_folder(self):
         os.remove(os.path.join(self.folder, "parameters.json"))
         self.assertRefused("not a results folder")

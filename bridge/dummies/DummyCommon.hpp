@@ -54,7 +54,6 @@ struct SpringMass {
   double advance(double& displacement, double& velocity, double force, double dt) const;
 };
 
-
 /// Restart checkpoints of a stand-in, in the folders `railcosim run` sets (CheckpointSettings::fromEnvironment):
 /// the checkpoint resumed from (checked: manifest, sizes, CRC-32) and this side's state file in it.
 struct ResumedState {

@@ -36,7 +36,8 @@ const char* usage =
     "  --no-check       do not compare the kinematics with the closed form\n"
     "  --compute-ms T   pretend to compute T ms per window (0)\n"
     "  --checkpoint-every S  order a restart checkpoint every S seconds of simulated time (default: the environment's\n"
-    "                   RAILCOSIM_CHECKPOINT_EVERY, else none), written into RAILCOSIM_CHECKPOINT_DIR; RAILCOSIM_RESUME\n"
+    "                   RAILCOSIM_CHECKPOINT_EVERY, else none), written into RAILCOSIM_CHECKPOINT_DIR; "
+    "RAILCOSIM_RESUME\n"
     "                   names the checkpoint to resume from\n"
     "  --result FILE    write the figures of the run (hexadecimal floats, exact) to FILE\n"
     "Exit status: 0 success, 2 peer lost, 3 protocol error, 1 other error or failed check.";
@@ -112,9 +113,10 @@ int main(int argc, char** argv) {
     } else {
       coupling = DemCouplingScheme::create(settings, participant, setup);
     }
-    const std::string everyText = options.text("checkpoint-every").empty()
-                                      ? (std::getenv("RAILCOSIM_CHECKPOINT_EVERY") ? std::getenv("RAILCOSIM_CHECKPOINT_EVERY") : "")
-                                      : options.text("checkpoint-every");
+    const std::string everyText =
+        options.text("checkpoint-every").empty()
+            ? (std::getenv("RAILCOSIM_CHECKPOINT_EVERY") ? std::getenv("RAILCOSIM_CHECKPOINT_EVERY") : "")
+            : options.text("checkpoint-every");
     const long checkpointWindows = everyText.empty() ? 0 : std::max(1L, std::lround(std::stod(everyText) / dt));
     const CheckpointSettings checkpoints = CheckpointSettings::fromEnvironment();
     if (checkpointWindows > 0 && checkpoints.folder.empty())

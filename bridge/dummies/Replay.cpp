@@ -57,7 +57,8 @@ struct Difference {
   void add(const std::vector<CheckpointFile>& live, const std::vector<CheckpointFile>& recorded) {
     bool same = live.size() == recorded.size();
     for (std::size_t k = 0; same && k < live.size(); ++k)
-      same = live[k].name == recorded[k].name && live[k].bytes == recorded[k].bytes && live[k].crc32 == recorded[k].crc32;
+      same =
+          live[k].name == recorded[k].name && live[k].bytes == recorded[k].bytes && live[k].crc32 == recorded[k].crc32;
     if (!same) worst = INFINITY;
     ++compared;
     if (!same) ++differing;
@@ -127,8 +128,9 @@ int main(int argc, char** argv) {
             throw PeerLostError("the DEM side finalized before the recorded " + protocol::describe(step.header));
           if ((live.kind == FemIncoming::Kind::Checkpoint) != (type == protocol::MessageType::Checkpoint))
             throw Error(std::string("the DEM side sent ") +
-                        (live.kind == FemIncoming::Kind::Checkpoint ? "checkpoint order " + live.checkpoint.name
-                                                                    : "forces of window " + std::to_string(live.forces.window)) +
+                        (live.kind == FemIncoming::Kind::Checkpoint
+                             ? "checkpoint order " + live.checkpoint.name
+                             : "forces of window " + std::to_string(live.forces.window)) +
                         " where the recording has " + protocol::describe(step.header));
           if (live.kind == FemIncoming::Kind::Checkpoint) {
             const CheckpointOrder recorded = protocol::decodeCheckpoint(step.header, step.bytes->data());
@@ -144,8 +146,8 @@ int main(int argc, char** argv) {
                         protocol::describe(step.header));
           difference.add(live.forces.forces, recorded.forces, tolerance);
         } else if (type == protocol::MessageType::CheckpointWritten && step.fromPlayed) {
-          participant.confirmCheckpoint(step.header.window,
-                                        decodeCheckpointFiles(protocol::decodeCheckpointWritten(step.header, step.bytes->data())));
+          participant.confirmCheckpoint(step.header.window, decodeCheckpointFiles(protocol::decodeCheckpointWritten(
+                                                                step.header, step.bytes->data())));
         } else if (type == protocol::MessageType::Kinematics && step.fromPlayed) {
           participant.sendKinematics(step.header.window,
                                      protocol::decodeKinematics(step.header, step.bytes->data(), nodes));

@@ -516,7 +516,8 @@ std::optional<ForceMessage> FemParticipant::receiveForces() {
   FemIncoming incoming = receive();
   if (incoming.kind == FemIncoming::Kind::Checkpoint) {
     impl_->link.abortQuietly(impl_->link.self() + ": the DEM side ordered restart checkpoint " +
-                             incoming.checkpoint.name + ", which this FEM side cannot save (it reads with receiveForces())");
+                             incoming.checkpoint.name +
+                             ", which this FEM side cannot save (it reads with receiveForces())");
     impl_->link.fail("receiveForces: the DEM side ordered restart checkpoint " + incoming.checkpoint.name +
                      " (window " + std::to_string(incoming.checkpoint.window) +
                      "); a FEM side that saves checkpoints reads with receive() or FemCouplingScheme::beginStep()");
@@ -552,13 +553,14 @@ FemIncoming FemParticipant::receive() {
     return incoming;
   }
   if (header.type == protocol::MessageType::Checkpoint) {
-    if (!order.checkpointAllowed(header.window)) link.unexpected(header, "a Checkpoint for " + order.expectedCheckpoint());
+    if (!order.checkpointAllowed(header.window))
+      link.unexpected(header, "a Checkpoint for " + order.expectedCheckpoint());
     incoming.kind = FemIncoming::Kind::Checkpoint;
     incoming.checkpoint = link.decodeBody([&] { return protocol::decodeCheckpoint(header, frame.data()); }, waitingFor);
     order.checkpointExchanged(header.window);
     impl_->pendingCheckpoint = incoming.checkpoint;
-    log(LogLevel::Info, link.self() + ": " + link.peerLabel() + " ordered restart checkpoint " +
-                            incoming.checkpoint.name);
+    log(LogLevel::Info,
+        link.self() + ": " + link.peerLabel() + " ordered restart checkpoint " + incoming.checkpoint.name);
     return incoming;
   }
   if (header.type != protocol::MessageType::Forces || !order.forcesAllowed(header.window, header.iteration)) {
@@ -576,9 +578,9 @@ void FemParticipant::confirmCheckpoint(std::uint64_t window, const std::vector<C
   link.requireUsable("confirmCheckpoint()");
   if (!impl_->pendingCheckpoint || impl_->pendingCheckpoint->window != window) {
     link.fail("confirmCheckpoint(window " + std::to_string(window) + "): " +
-              (impl_->pendingCheckpoint ? "the checkpoint ordered is that of window " +
-                                              std::to_string(impl_->pendingCheckpoint->window)
-                                        : std::string("no checkpoint was ordered")));
+              (impl_->pendingCheckpoint
+                   ? "the checkpoint ordered is that of window " + std::to_string(impl_->pendingCheckpoint->window)
+                   : std::string("no checkpoint was ordered")));
   }
   std::string list;
   try {
@@ -586,8 +588,9 @@ void FemParticipant::confirmCheckpoint(std::uint64_t window, const std::vector<C
   } catch (const Error& error) {
     link.fail(std::string("confirmCheckpoint: ") + error.what());
   }
-  link.send(link.encode([&](auto buffer) { return protocol::encodeCheckpointWritten(window, list, std::move(buffer)); }),
-            windowText("the files of the checkpoint", window), false);
+  link.send(
+      link.encode([&](auto buffer) { return protocol::encodeCheckpointWritten(window, list, std::move(buffer)); }),
+      windowText("the files of the checkpoint", window), false);
   impl_->pendingCheckpoint.reset();
 }
 
@@ -748,8 +751,8 @@ std::vector<CheckpointFile> DemParticipant::orderCheckpoint(const CheckpointOrde
   }
   cplscheme::MessageOrder& order = link.order();
   if (!order.checkpointAllowed(checkpoint.window)) {
-    link.fail("orderCheckpoint: window " + std::to_string(checkpoint.window) + " but the " +
-              link.agreedSchemeLabel() + " scheme is at " + order.expectedCheckpoint());
+    link.fail("orderCheckpoint: window " + std::to_string(checkpoint.window) + " but the " + link.agreedSchemeLabel() +
+              " scheme is at " + order.expectedCheckpoint());
   }
   if (!std::isfinite(checkpoint.time)) link.fail("orderCheckpoint: time is not finite");
   link.send(link.encode([&](auto buffer) { return protocol::encodeCheckpoint(checkpoint, std::move(buffer)); }),

@@ -99,8 +99,8 @@ struct PluginState {
   bool saving = false;
   std::optional<railcosim::CheckpointManifest> resumedFrom;
   std::map<std::string, std::vector<double>> loadedArrays;
-  std::string loadedScheme;      // the coupling scheme's state, read by the first railcosimBeginStep
-  long exchangesBefore = 0;      // exchanges of the interrupted run up to the checkpoint (statistics go on from there)
+  std::string loadedScheme; // the coupling scheme's state, read by the first railcosimBeginStep
+  long exchangesBefore = 0; // exchanges of the interrupted run up to the checkpoint (statistics go on from there)
 };
 
 PluginState& state() {
@@ -355,17 +355,20 @@ long railcosimStepWindow() {
 std::string stagingFolderOf(const railcosim::CheckpointOrder& order) {
   const std::string root = railcosim::CheckpointSettings::fromEnvironment().folder;
   if (root.empty())
-    throw railcosim::Error("the DEM side ordered restart checkpoint " + order.name +
-                           " but RAILCOSIM_CHECKPOINT_DIR is not set on the FEM side (./railcosim run sets it for both)");
+    throw railcosim::Error(
+        "the DEM side ordered restart checkpoint " + order.name +
+        " but RAILCOSIM_CHECKPOINT_DIR is not set on the FEM side (./railcosim run sets it for both)");
   const std::string staging = railcosim::stagingFolder(root, order.name);
   if (!std::filesystem::is_directory(staging))
-    throw railcosim::Error("restart checkpoint " + order.name + ": the folder " + staging +
-                           " the DEM side prepares does not exist (do both sides have the same RAILCOSIM_CHECKPOINT_DIR?)");
+    throw railcosim::Error(
+        "restart checkpoint " + order.name + ": the folder " + staging +
+        " the DEM side prepares does not exist (do both sides have the same RAILCOSIM_CHECKPOINT_DIR?)");
   return staging;
 }
 
 void requireSaving(const char* function) {
-  if (!state().saving) fail(function, "no restart checkpoint is being saved (railcosimBeginStep returns 2 when one is)");
+  if (!state().saving)
+    fail(function, "no restart checkpoint is being saved (railcosimBeginStep returns 2 when one is)");
 }
 
 long railcosimSaveArray(string* const& name, KN<double>* const& values) {
@@ -434,8 +437,8 @@ long railcosimSaveDone() {
     std::vector<railcosim::CheckpointFile> files{railcosim::describeCheckpointFile(staging, "fem_state.bin", "fem")};
     for (const std::string& path : s.savedFiles) {
       const std::string relative = relativeToWorkFolder(path);
-      files.push_back(railcosim::copyIntoCheckpoint(staging, path, "fem_" + std::filesystem::path(path).filename().string(),
-                                                    "fem", relative));
+      files.push_back(railcosim::copyIntoCheckpoint(
+          staging, path, "fem_" + std::filesystem::path(path).filename().string(), "fem", relative));
     }
     scheme.confirmRestart(files);
     s.saving = false;
@@ -452,7 +455,8 @@ long railcosimResumeLoad() {
     const railcosim::CheckpointManifest manifest = railcosim::verifyCheckpoint(folder);
     railcosim::restoreCheckpointFiles(folder, manifest, "fem", std::filesystem::current_path().string());
     std::ifstream in(folder + "/fem_state.bin", std::ios::binary);
-    if (!in) throw railcosim::CheckpointError("checkpoint " + folder + " has no fem_state.bin (not listed for the fem side?)");
+    if (!in)
+      throw railcosim::CheckpointError("checkpoint " + folder + " has no fem_state.bin (not listed for the fem side?)");
     railcosim::StateReader reader(in, folder + "/fem_state.bin");
     reader.section("fem solver");
     const std::uint64_t count = reader.u64();

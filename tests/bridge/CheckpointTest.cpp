@@ -43,8 +43,8 @@ bool sameBits(double a, double b) { return std::memcmp(&a, &b, sizeof a) == 0; }
 
 /// A fresh folder under /tmp, removed at the end of the test.
 struct Scratch {
-  fs::path root = fs::temp_directory_path() / ("railcosim-checkpoint-test-" + std::to_string(getpid()) + "-" +
-                                               std::to_string(counter++));
+  fs::path root = fs::temp_directory_path() /
+                  ("railcosim-checkpoint-test-" + std::to_string(getpid()) + "-" + std::to_string(counter++));
   Scratch() { fs::create_directories(root); }
   ~Scratch() { fs::remove_all(root); }
   static inline int counter = 0;
@@ -83,8 +83,12 @@ CheckpointManifest commitSample(const fs::path& root, std::uint64_t window) {
 } // namespace
 
 BOOST_AUTO_TEST_CASE(state_stream_round_trip_is_bit_for_bit) {
-  const double values[] = {0.1, -0.0, std::numeric_limits<double>::denorm_min(), std::numeric_limits<double>::max(),
-                           std::numeric_limits<double>::infinity(), 1.0 / 3.0};
+  const double values[] = {0.1,
+                           -0.0,
+                           std::numeric_limits<double>::denorm_min(),
+                           std::numeric_limits<double>::max(),
+                           std::numeric_limits<double>::infinity(),
+                           1.0 / 3.0};
   std::ostringstream out;
   StateWriter writer(out);
   writer.section("values");
@@ -210,8 +214,8 @@ BOOST_AUTO_TEST_CASE(file_lists_and_restored_files) {
   Scratch scratch;
   const std::string staging = prepareCheckpoint(scratch.root.string(), checkpointName(5));
   writeFile(scratch.root / "monitor.csv", "time,u\n0,0\n");
-  const CheckpointFile copied = copyIntoCheckpoint(staging, (scratch.root / "monitor.csv").string(), "fem_monitor.csv",
-                                                   "fem", "fem/monitor.csv");
+  const CheckpointFile copied =
+      copyIntoCheckpoint(staging, (scratch.root / "monitor.csv").string(), "fem_monitor.csv", "fem", "fem/monitor.csv");
   const std::vector<CheckpointFile> back = decodeCheckpointFiles(encodeCheckpointFiles({copied}));
   BOOST_TEST(back.size() == 1u);
   BOOST_TEST(back[0].name == "fem_monitor.csv");
@@ -225,8 +229,8 @@ BOOST_AUTO_TEST_CASE(file_lists_and_restored_files) {
   manifest.files = {copied};
   commitCheckpoint(scratch.root.string(), manifest);
   const fs::path work = scratch.root / "work";
-  restoreCheckpointFiles((scratch.root / manifest.name).string(), verifyCheckpoint((scratch.root / manifest.name).string()),
-                         "fem", work.string());
+  restoreCheckpointFiles((scratch.root / manifest.name).string(),
+                         verifyCheckpoint((scratch.root / manifest.name).string()), "fem", work.string());
   BOOST_TEST(readFile(work / "fem" / "monitor.csv") == "time,u\n0,0\n");
   BOOST_TEST(!fs::exists(work / "fem" / "monitor.csv.restoring"));
 }

@@ -146,7 +146,8 @@ BOOST_AUTO_TEST_CASE(hello_announces_the_checkpoint_resumed_from) {
   BOOST_CHECK_THROW(encodeHello(hello), ProtocolError);
   auto fresh = encodeHello(Hello{Role::Fem, "fem", "SI", "", "", 0});
   patch<std::uint64_t>(fresh, 8, 800);
-  expectRejected([&] { decodeHello(decode(fresh), fresh.data()); }, {"field 'window' is 800", "'resumedFrom' is empty"});
+  expectRejected([&] { decodeHello(decode(fresh), fresh.data()); },
+                 {"field 'window' is 800", "'resumedFrom' is empty"});
   hello.resumedFrom = "../elsewhere";
   BOOST_CHECK_THROW(encodeHello(hello), ProtocolError);
 }

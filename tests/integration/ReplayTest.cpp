@@ -105,7 +105,8 @@ BOOST_AUTO_TEST_CASE(restart_checkpoints_are_replayed_on_both_sides) {
   }
   {
     const std::string endpoint = "ipc:///tmp/" + uniqueName() + ".sock";
-    Process replay(RAILCOSIM_REPLAY, {"--recording", recording, "--play", "fem", "--endpoint", endpoint, "--timeout", "20"});
+    Process replay(RAILCOSIM_REPLAY,
+                   {"--recording", recording, "--play", "fem", "--endpoint", endpoint, "--timeout", "20"});
     Process demProcess(RAILCOSIM_DUMMY_DEM, withEndpoint(dem, endpoint));
     BOOST_TEST(demProcess.wait(30) == 0, demProcess.errors());
     BOOST_TEST(replay.wait(10) == 0, replay.output() << replay.errors());
@@ -114,7 +115,8 @@ BOOST_AUTO_TEST_CASE(restart_checkpoints_are_replayed_on_both_sides) {
   {
     const std::string endpoint = "ipc:///tmp/" + uniqueName() + ".sock";
     Process femProcess(RAILCOSIM_DUMMY_FEM, femAt(endpoint));
-    Process replay(RAILCOSIM_REPLAY, {"--recording", recording, "--play", "dem", "--endpoint", endpoint, "--timeout", "20"});
+    Process replay(RAILCOSIM_REPLAY,
+                   {"--recording", recording, "--play", "dem", "--endpoint", endpoint, "--timeout", "20"});
     BOOST_TEST(replay.wait(30) == 0, replay.output() << replay.errors());
     BOOST_TEST(femProcess.wait(10) == 0, femProcess.errors());
     BOOST_TEST(contains(replay.output(), "largest relative difference 0.000e+00"), replay.output());

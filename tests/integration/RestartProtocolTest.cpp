@@ -114,7 +114,8 @@ BOOST_AUTO_TEST_CASE(a_checkpoint_inside_a_window_is_refused) {
   auto fem = std::async(std::launch::async, [&] {
     FemParticipant participant(config("fem", endpoint));
     participant.initialize(square(), 1e-4, restingAt(0.0));
-    while (auto forces = participant.receiveForces()) participant.sendKinematics(forces->window, restingAt(forces->time));
+    while (auto forces = participant.receiveForces())
+      participant.sendKinematics(forces->window, restingAt(forces->time));
   });
   DemParticipant dem(config("dem", endpoint));
   dem.initialize();
@@ -154,7 +155,8 @@ BOOST_AUTO_TEST_CASE(both_sides_must_resume_from_the_same_checkpoint) {
        "resumed from restart checkpoint window-00000010 (window 10) but this side from a fresh start"},
       {"", 0, "window-00000010", 10,
        "resumed from a fresh start but this side from restart checkpoint window-00000010 (window 10)"},
-      {"window-00000020", 20, "window-00000010", 10, "window-00000020 (window 20) but this side from restart checkpoint"},
+      {"window-00000020", 20, "window-00000010", 10,
+       "window-00000020 (window 20) but this side from restart checkpoint"},
   };
   for (const Case& c : cases) {
     const std::string endpoint = uniqueEndpoint();
@@ -217,7 +219,8 @@ BOOST_AUTO_TEST_CASE(a_scheme_resumes_only_from_its_own_state) {
   SchemeSettings settings;
   settings.scheme = CouplingScheme::Predictive;
   auto scheme = DemCouplingScheme::create(settings, dem, setup);
-  for (int window = 0; window < 3; ++window) scheme->completeWindow(std::vector<double>(12, -1.0), 1e-4 * (window + 1), true);
+  for (int window = 0; window < 3; ++window)
+    scheme->completeWindow(std::vector<double>(12, -1.0), 1e-4 * (window + 1), true);
   std::ostringstream saved;
   scheme->writeState(saved);
   dem.finalize();
@@ -237,11 +240,13 @@ BOOST_AUTO_TEST_CASE(a_scheme_resumes_only_from_its_own_state) {
   SchemeSettings implicit;
   implicit.scheme = CouplingScheme::Implicit;
   std::istringstream asImplicit(saved.str());
-  BOOST_TEST(contains(messageOf<CheckpointError>([&] { DemCouplingScheme::resume(implicit, unconnected, setup, asImplicit); }),
-                      "coupled with the predictive scheme, this run with the implicit scheme"));
+  BOOST_TEST(
+      contains(messageOf<CheckpointError>([&] { DemCouplingScheme::resume(implicit, unconnected, setup, asImplicit); }),
+               "coupled with the predictive scheme, this run with the implicit scheme"));
   InterfaceSetup otherStep = setup;
   otherStep.femTimeStep = 2e-4;
   std::istringstream withOtherStep(saved.str());
-  BOOST_TEST(contains(messageOf<CheckpointError>([&] { DemCouplingScheme::resume(settings, unconnected, otherStep, withOtherStep); }),
-                      "resume with the FEM time step of the interrupted run"));
+  BOOST_TEST(contains(
+      messageOf<CheckpointError>([&] { DemCouplingScheme::resume(settings, unconnected, otherStep, withOtherStep); }),
+      "resume with the FEM time step of the interrupted run"));
 }

@@ -14,19 +14,19 @@ namespace railcosim {
 /// first (the connecting side retries until the peer appears or `timeoutSeconds` passes). A tcp endpoint
 /// written with host '*' binds to 127.0.0.1 only.
 struct ParticipantConfig {
-  std::string name;              // this participant, e.g. "fem" (printed in every error)
-  std::string endpoint;          // ZeroMQ endpoint, e.g. "ipc:///tmp/railcosim-1234.sock" or "tcp://127.0.0.1:5555"
-  double timeoutSeconds = 60.0;  // longest wait for any expected message before PeerLostError
-  double heartbeatSeconds = 1.0; // transport heartbeat: a frozen or dead peer is detected in ~3x this
-  std::string couplingScheme;    // optional "justInTime" | "predictive" | "implicit": announced at the handshake;
-                                 // when both sides name one, a mismatch is refused there
-  std::string token;             // run secret shared by both sides (empty: the environment variable
-                                 // RAILCOSIM_BRIDGE_TOKEN, else none); the FEM side admits only the first
-                                 // participant presenting it, and binding a non-loopback tcp host needs one
-  std::string recordPath;        // file to record every interface message of the run into (empty: the
-                                 // environment variable RAILCOSIM_BRIDGE_RECORD, else none); railcosim_replay
-                                 // plays either side back from it
-  std::string resumedFrom;       // restart checkpoint this participant resumed from ("": a fresh start), announced
+  std::string name;                // this participant, e.g. "fem" (printed in every error)
+  std::string endpoint;            // ZeroMQ endpoint, e.g. "ipc:///tmp/railcosim-1234.sock" or "tcp://127.0.0.1:5555"
+  double timeoutSeconds = 60.0;    // longest wait for any expected message before PeerLostError
+  double heartbeatSeconds = 1.0;   // transport heartbeat: a frozen or dead peer is detected in ~3x this
+  std::string couplingScheme;      // optional "justInTime" | "predictive" | "implicit": announced at the handshake;
+                                   // when both sides name one, a mismatch is refused there
+  std::string token;               // run secret shared by both sides (empty: the environment variable
+                                   // RAILCOSIM_BRIDGE_TOKEN, else none); the FEM side admits only the first
+                                   // participant presenting it, and binding a non-loopback tcp host needs one
+  std::string recordPath;          // file to record every interface message of the run into (empty: the
+                                   // environment variable RAILCOSIM_BRIDGE_RECORD, else none); railcosim_replay
+                                   // plays either side back from it
+  std::string resumedFrom;         // restart checkpoint this participant resumed from ("": a fresh start), announced
   std::uint64_t resumedWindow = 0; // at the handshake with its window; both sides must name the same one
 };
 

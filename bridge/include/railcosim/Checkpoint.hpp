@@ -32,12 +32,12 @@ struct CheckpointFile {
 
 /// manifest.json of a checkpoint folder (docs/protocol.md §12).
 struct CheckpointManifest {
-  std::string name;                 // the folder's name, e.g. "window-00000800"
+  std::string name;                  // the folder's name, e.g. "window-00000800"
   std::uint16_t protocolVersion = 0; // bridge protocol of both participants
-  std::uint64_t window = 0;         // windows completed: the run continues with window `window`
-  double time = 0.0;                // s since the handshake, t_window
-  std::string scheme;               // the coupling scheme agreed at the handshake
-  std::string run;                  // CheckpointSettings::run of the saving run
+  std::uint64_t window = 0;          // windows completed: the run continues with window `window`
+  double time = 0.0;                 // s since the handshake, t_window
+  std::string scheme;                // the coupling scheme agreed at the handshake
+  std::string run;                   // CheckpointSettings::run of the saving run
   std::vector<CheckpointFile> files;
 };
 

@@ -56,7 +56,8 @@ std::string hex32(std::uint32_t value) {
 std::uint32_t parseHex32(const std::string& text, const std::string& where) {
   char* end = nullptr;
   const unsigned long value = std::strtoul(text.c_str(), &end, 16);
-  if (text.size() != 8 || end != text.c_str() + text.size()) throw CheckpointError(where + ": CRC-32 '" + text + "' is not 8 hex digits");
+  if (text.size() != 8 || end != text.c_str() + text.size())
+    throw CheckpointError(where + ": CRC-32 '" + text + "' is not 8 hex digits");
   return static_cast<std::uint32_t>(value);
 }
 
@@ -95,7 +96,8 @@ std::vector<std::pair<long long, fs::path>> completeCheckpoints(const std::strin
   if (!fs::is_directory(root, error)) return found;
   for (const auto& entry : fs::directory_iterator(root, error)) {
     const long long window = windowOfName(entry.path().filename().string());
-    if (window >= 0 && entry.is_directory() && fs::exists(entry.path() / manifestFile)) found.emplace_back(window, entry.path());
+    if (window >= 0 && entry.is_directory() && fs::exists(entry.path() / manifestFile))
+      found.emplace_back(window, entry.path());
   }
   std::sort(found.begin(), found.end());
   return found;
@@ -207,8 +209,9 @@ void commitCheckpoint(const std::string& root, const CheckpointManifest& manifes
   std::ostringstream json;
   json << "{\n  \"format\": " << jsonText(formatName) << ",\n  \"name\": " << jsonText(manifest.name)
        << ",\n  \"protocol_version\": " << protocol::protocolVersion << ",\n  \"window\": " << manifest.window
-       << ",\n  \"time\": " << std::setprecision(17) << manifest.time << ",\n  \"scheme\": " << jsonText(manifest.scheme)
-       << ",\n  \"run\": " << jsonText(manifest.run) << ",\n  \"files\": [";
+       << ",\n  \"time\": " << std::setprecision(17) << manifest.time
+       << ",\n  \"scheme\": " << jsonText(manifest.scheme) << ",\n  \"run\": " << jsonText(manifest.run)
+       << ",\n  \"files\": [";
   for (std::size_t i = 0; i < manifest.files.size(); ++i) {
     const CheckpointFile& file = manifest.files[i];
     json << (i ? ",\n" : "\n") << "    {\"side\": " << jsonText(file.side) << ", \"name\": " << jsonText(file.name)
@@ -251,8 +254,9 @@ CheckpointManifest verifyCheckpoint(const std::string& folder) {
   if (!fs::is_directory(folder, error)) throw CheckpointError("checkpoint " + folder + " does not exist");
   const std::string manifestPath = (fs::path(folder) / manifestFile).string();
   if (!fs::exists(manifestPath, error))
-    throw CheckpointError("checkpoint " + folder +
-                          " is incomplete: it has no manifest.json (its save was interrupted); resume from a complete one");
+    throw CheckpointError(
+        "checkpoint " + folder +
+        " is incomplete: it has no manifest.json (its save was interrupted); resume from a complete one");
   namespace pt = boost::property_tree;
   pt::ptree tree;
   CheckpointManifest manifest;
@@ -290,9 +294,10 @@ CheckpointManifest verifyCheckpoint(const std::string& folder) {
                             " side) is missing");
     const CheckpointFile found = describeCheckpointFile(folder, file.name, file.side);
     if (found.bytes != file.bytes || found.crc32 != file.crc32)
-      throw CheckpointError("checkpoint " + folder + " is damaged: " + file.name + " has " + std::to_string(found.bytes) +
-                            " bytes, CRC-32 " + hex32(found.crc32) + ", the manifest says " + std::to_string(file.bytes) +
-                            " bytes, CRC-32 " + hex32(file.crc32));
+      throw CheckpointError("checkpoint " + folder + " is damaged: " + file.name + " has " +
+                            std::to_string(found.bytes) + " bytes, CRC-32 " + hex32(found.crc32) +
+                            ", the manifest says " + std::to_string(file.bytes) + " bytes, CRC-32 " +
+                            hex32(file.crc32));
   }
   return manifest;
 }

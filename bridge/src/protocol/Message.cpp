@@ -618,10 +618,12 @@ Hello decodeHello(const Header& header, const std::uint8_t* data) {
   }
   if (!hello.resumedFrom.empty()) {
     const std::string problem = checkpointNameProblem(hello.resumedFrom);
-    if (!problem.empty()) throw ProtocolError("Hello from '" + hello.participantName + "': field 'resumedFrom' " + problem);
+    if (!problem.empty())
+      throw ProtocolError("Hello from '" + hello.participantName + "': field 'resumedFrom' " + problem);
   } else if (hello.resumedWindow != 0) {
     throw ProtocolError("Hello from '" + hello.participantName + "': field 'window' is " +
-                        std::to_string(hello.resumedWindow) + " but field 'resumedFrom' is empty (a fresh start has window 0)");
+                        std::to_string(hello.resumedWindow) +
+                        " but field 'resumedFrom' is empty (a fresh start has window 0)");
   }
   return hello;
 }

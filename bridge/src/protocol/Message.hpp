@@ -70,8 +70,8 @@ struct Hello {
   Role role = Role::Fem;
   std::string participantName;
   std::string unitSystem = "SI";
-  std::string couplingScheme; // "" (not stated), "justInTime", "predictive" or "implicit"
-  std::string resumedFrom;    // the checkpoint this participant resumed from ("" for a fresh start)
+  std::string couplingScheme;      // "" (not stated), "justInTime", "predictive" or "implicit"
+  std::string resumedFrom;         // the checkpoint this participant resumed from ("" for a fresh start)
   std::uint64_t resumedWindow = 0; // its window (header field `window`; 0 for a fresh start)
 };
 

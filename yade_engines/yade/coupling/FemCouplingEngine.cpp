@@ -125,8 +125,7 @@ void FemCouplingEngine::connect() {
     // Checked whole before anything is exchanged: a damaged or foreign checkpoint is refused in one line.
     resumedManifest = railcosim::verifyCheckpoint(resumeFrom);
     std::ifstream in(resumeFrom + "/" + stateFile, std::ios::binary);
-    if (!in)
-      throw railcosim::CheckpointError("checkpoint " + resumeFrom + " has no " + stateFile + " of the DEM side");
+    if (!in) throw railcosim::CheckpointError("checkpoint " + resumeFrom + " has no " + stateFile + " of the DEM side");
     railcosim::StateReader state(in, resumeFrom + "/" + stateFile);
     state.section("dem coupling engine");
     resumedEngine = state.bytes();
@@ -288,8 +287,9 @@ void FemCouplingEngine::orderRestartCheckpoint() {
   if (checkpointFolder.empty())
     throw std::invalid_argument("FemCouplingEngine: checkpointEvery is set but checkpointFolder is empty.");
   if (!checkpointPending.empty())
-    LOG_WARN("Restart checkpoint " << checkpointPending << " was ordered but never completed (completeCheckpoint() "
-                                   << "from the last engine of its step); it stays incomplete and is not resumed from.");
+    LOG_WARN(
+        "Restart checkpoint " << checkpointPending << " was ordered but never completed (completeCheckpoint() "
+                              << "from the last engine of its step); it stays incomplete and is not resumed from.");
   const auto start = Clock::now();
   const std::string name = railcosim::checkpointName(window);
   railcosim::prepareCheckpoint(checkpointFolder, name);
@@ -350,7 +350,8 @@ std::string FemCouplingEngine::completeCheckpoint(const std::vector<std::string>
 
 boost::python::object FemCouplingEngine::restoreCheckpoint() {
   if (resumeFrom.empty() || !connected)
-    throw std::runtime_error("FemCouplingEngine.restoreCheckpoint: only in a resumed run (resumeFrom), after connect().");
+    throw std::runtime_error(
+        "FemCouplingEngine.restoreCheckpoint: only in a resumed run (resumeFrom), after connect().");
   try {
     railcosim::restoreCheckpointFiles(resumeFrom, resumedManifest, "dem", std::filesystem::current_path().string());
     std::istringstream saved(resumedScene);
@@ -373,7 +374,8 @@ void FemCouplingEngine::writeOwnState(std::ostream& out) const {
   state.i64(subcycles);
   state.real(timeAtConnect);
   std::vector<double> connectivity;
-  for (const Vector3i& t : triangles) connectivity.insert(connectivity.end(), {double(t[0]), double(t[1]), double(t[2])});
+  for (const Vector3i& t : triangles)
+    connectivity.insert(connectivity.end(), {double(t[0]), double(t[1]), double(t[2])});
   state.reals(connectivity);
   state.i64(window);
   state.i64(exchanges);
@@ -416,7 +418,8 @@ void FemCouplingEngine::readOwnState(std::istream& in, const railcosim::Interfac
   if (state.i64() != subcycles) refuse("the DEM steps per window differ from the saved ones");
   timeAtConnect = state.real();
   std::vector<double> connectivity;
-  for (const Vector3i& t : triangles) connectivity.insert(connectivity.end(), {double(t[0]), double(t[1]), double(t[2])});
+  for (const Vector3i& t : triangles)
+    connectivity.insert(connectivity.end(), {double(t[0]), double(t[1]), double(t[2])});
   if (state.reals() != connectivity) refuse("the FEM side's interface triangles differ from the saved ones");
   window = state.i64();
   if (static_cast<std::uint64_t>(window) != resumedManifest.window)

@@ -133,10 +133,10 @@ private:
   Real savedWorkDem = 0, savedWorkFem = 0;
   std::shared_ptr<const FemSurfaceContactEngine::History> savedHistory;
   // Restart checkpoints: the FEM side's files of the one ordered, and what a resumed run read at connect().
-  Real timeAtConnect = 0;                         // scene time of the handshake: checkpoint times count from it
+  Real timeAtConnect = 0;                          // scene time of the handshake: checkpoint times count from it
   std::vector<railcosim::CheckpointFile> femFiles; // of checkpointPending
   railcosim::CheckpointManifest resumedManifest;
-  std::string resumedScene, resumedPython;         // parts of dem_state.bin read by restoreCheckpoint()
+  std::string resumedScene, resumedPython; // parts of dem_state.bin read by restoreCheckpoint()
 };
 REGISTER_SERIALIZABLE(FemCouplingEngine);
 

@@ -314,10 +314,9 @@ void SceneCheckpoint::readBetweenSteps(Scene& scene, std::istream& in, const std
   long count = 0;
   stream >> count;
   if (count != static_cast<long>(scene.bodies->size()))
-    throw railcosim::CheckpointError("checkpoint " + source + " holds " + std::to_string(count) +
-                                     " bodies, the scene built for the resumed run " +
-                                     std::to_string(scene.bodies->size()) +
-                                     "; resume with the case and parameters of the interrupted run");
+    throw railcosim::CheckpointError(
+        "checkpoint " + source + " holds " + std::to_string(count) + " bodies, the scene built for the resumed run " +
+        std::to_string(scene.bodies->size()) + "; resume with the case and parameters of the interrupted run");
   struct Saved {
     shared_ptr<State> state;
     shared_ptr<Shape> shape;
@@ -335,7 +334,8 @@ void SceneCheckpoint::readBetweenSteps(Scene& scene, std::istream& in, const std
     const shared_ptr<Body>& b = (*scene.bodies)[id];
     if (present != static_cast<bool>(b))
       throw railcosim::CheckpointError("checkpoint " + source + ": body #" + std::to_string(id) + " is " +
-                                       (present ? "missing from" : "extra in") + " the scene built for the resumed run");
+                                       (present ? "missing from" : "extra in") +
+                                       " the scene built for the resumed run");
     if (!present) continue;
     std::string shapeClass;
     Saved& s = saved[id];

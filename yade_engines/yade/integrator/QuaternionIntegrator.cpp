@@ -189,7 +189,8 @@ void QuaternionIntegrator::restoreRestartState(const boost::python::object& save
     slot.predicted = state.flag();
     slot.timeStep = state.real();
     const std::string rotation = state.bytes();
-    if (rotation.size() != sizeof(slot.rotation)) state.fail("a rotation state of " + std::to_string(rotation.size()) + " bytes");
+    if (rotation.size() != sizeof(slot.rotation))
+      state.fail("a rotation state of " + std::to_string(rotation.size()) + " bytes");
     std::memcpy(&slot.rotation, rotation.data(), sizeof(slot.rotation));
     const std::vector<double> v = state.reals();
     if (v.size() != 13) state.fail("13 values per body expected");

@@ -1,4 +1,4 @@
-// A snapshot of a YADE scene's dynamic state in memory, to simulate a stretch of time again from it.
+// Snapshots of a YADE scene's dynamic state: in memory to simulate a window again, on disk to resume a run.
 #pragma once
 
 #include <core/Scene.hpp>

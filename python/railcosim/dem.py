@@ -15,8 +15,8 @@ runner) and reads as its numbered physics steps around these calls:
 
 Restart checkpoints need nothing of the case: `railcosim run --checkpoint-every S` and `--resume DIR` set the
 environment (RESTART_ENVIRONMENT) that coupling_engine() hands to FemCouplingEngine; run() completes each checkpoint
-the engine orders (the scene, every engine's attributes and private state, this object's clock, the time series so
-far, `dem.state`) and, in a resumed run, puts all of it back before the first step. A case's dem.py must build the
+the engine orders (the scene, every engine's and material's attributes, engines' private state, this object's clock,
+the time series so far, `dem.state`) and, in a resumed run, puts all of it back before the first step. A case's dem.py must build the
 same scene again and keep whatever it accumulates during the run in the scene, its engines or `dem.state` (a dict of
 picklable values), not in Python variables that a resumed run would start afresh.
 
@@ -256,7 +256,8 @@ class CoupledDem:
         exchange (FemCouplingEngine.completeCheckpoint)."""
         from yade import O
         self.recorder.flush()
-        state = {"engines": engine_states(O.engines), "time_origin": self.time_origin, "first_iter": self.first_iter,
+        state = {"engines": engine_states(O.engines), "materials": [_attributes(m) for m in O.materials],
+                 "time_origin": self.time_origin, "first_iter": self.first_iter,
                  "windows_recorded": len(self.recorder), "case": self.state}
         folder = self.coupling.completeCheckpoint([self.recorder.path], pickle.dumps(state))
         print(f"checkpoint {folder} at t={self.time:.4f} s, window {self.coupling.window}", flush=True)
@@ -267,6 +268,11 @@ class CoupledDem:
         from yade import O
         state = pickle.loads(self.coupling.restoreCheckpoint())
         restore_engine_states(O.engines, state["engines"])
+        if len(O.materials) != len(state["materials"]):
+            raise RuntimeError(f"restart: the scene has {len(O.materials)} materials, the checkpoint "
+                               f"{len(state['materials'])}; resume with the case and parameters of the interrupted run")
+        for k, (material, attributes) in enumerate(zip(O.materials, state["materials"])):
+            _restore_attributes(material, attributes, f"O.materials[{k}]")  # a script may change them during a run
         self.time_origin, self.first_iter = state["time_origin"], state["first_iter"]
         self.state.clear()
         self.state.update(state["case"])

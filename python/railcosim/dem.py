@@ -78,16 +78,23 @@ def _plain(value):
     return True
 
 
-def _attributes(obj):
+# Nesting followed into attributes that are YADE objects (engine > dispatcher > functor is 3): deep enough for every
+# engine, and a bound for an object that refers back to one that holds it.
+ATTRIBUTE_DEPTH = 6
+
+
+def _attributes(obj, depth=0):
     """{name: value} of a YADE object's attributes, nested objects (functors, dispatchers) by value; values that do
     not pickle (enumerations: settings, not state) are left out."""
     from yade.wrapper import Serializable
     state = {}
     for name, value in obj.dict().items():
         if isinstance(value, Serializable):
-            state[name] = ("object", type(value).__name__, _attributes(value))
+            if depth < ATTRIBUTE_DEPTH:
+                state[name] = ("object", type(value).__name__, _attributes(value, depth + 1))
         elif isinstance(value, (list, tuple)) and value and all(isinstance(v, Serializable) for v in value):
-            state[name] = ("objects", [(type(v).__name__, _attributes(v)) for v in value])
+            if depth < ATTRIBUTE_DEPTH:
+                state[name] = ("objects", [(type(v).__name__, _attributes(v, depth + 1)) for v in value])
         elif _plain(value):
             try:
                 pickle.dumps(value)

@@ -95,7 +95,7 @@ public:
 		((string, checkpointRun, "", , "What identifies the run (case and parameters), stored in every checkpoint's manifest and compared when a run resumes."))
 		((string, resumeFrom, "", , "Restart checkpoint folder this run resumes from (\"\": a fresh run). connect() then checks it, announces it at the handshake (the FEM side must resume from the same one) and takes up the coupling where it stopped; :yref:`FemCouplingEngine.restoreCheckpoint` puts the scene back."))
 		((string, checkpointPending, "", Attr::readonly, "Name of the restart checkpoint ordered at this step's exchange and not yet completed (\"\" when none)."))
-		((long, checkpointsWritten, 0, Attr::readonly, "Restart checkpoints completed by this run and the runs it resumed."))
+		((long, checkpointsWritten, 0, Attr::readonly, "Restart checkpoints ordered by this run and the runs it resumed (completed by completeCheckpoint)."))
 		((string, lastCheckpoint, "", Attr::readonly, "Folder of the last restart checkpoint completed or resumed from."))
 		((Real, checkpointWriteTime, 0, Attr::readonly, "Wall time spent writing restart checkpoints [s] (both sides' saves, as the DEM waits for the FEM's)."))
 		, /* ctor */

@@ -55,9 +55,10 @@ def rotate(quaternion, vectors):
 class DemSnapshots:
     """The YADE side's snapshots, appended to DIR/dem_snapshots.h5 (one group per snapshot K)."""
 
-    def __init__(self, out, coupling=None, polyhedra=None):
+    def __init__(self, out, coupling=None, polyhedra=None, append=False):
+        """`append`: a resumed run adds to the snapshots its interrupted part wrote."""
         import h5py
-        self.file = h5py.File(os.path.join(out, DEM_SNAPSHOTS), "w")
+        self.file = h5py.File(os.path.join(out, DEM_SNAPSHOTS), "a" if append else "w")
         self.file.attrs["units"] = "SI (m, s, N)"
         self.coupling = coupling
         self.polyhedra = polyhedra
@@ -84,6 +85,8 @@ class DemSnapshots:
     def write(self, index, time):
         """Snapshot K = index at simulated time `time` [s] (the FEM side numbers its own the same way)."""
         from yade import O, wrapper
+        if f"{index:06d}" in self.file:  # written after the checkpoint a resumed run went back to
+            del self.file[f"{index:06d}"]
         group = self.file.create_group(f"{index:06d}")
         group.attrs["time"] = time
         interface_ids = set(self.coupling.facetIds) if self.coupling is not None else set()

@@ -33,6 +33,10 @@ public:
   void addStone(Body::id_t id, const std::vector<Vector3r>& vertices, Real stoneDilationRadius = -1);
   /// Volume of the convex hull of `vertices` dilated by `dilationRadius` (Steiner formula, as the engine computes it).
   static Real dilatedVolume(const std::vector<Vector3r>& vertices, Real dilationRadius);
+  /// Restart checkpoints (railcosim.dem.CoupledDem): the polyhedra system's state (stones, contact histories,
+  /// neighbour lists), which no attribute holds. Refused for now (see the .cpp).
+  boost::python::object restartState() const;
+  void restoreRestartState(const boost::python::object& state);
   virtual ~PolyhedraGpuEngine();
 
   // The coupled surface (C++ side of FemCouplingEngine with contactModel='polyhedra').
@@ -111,6 +115,8 @@ public:
 		.def("stoneTorques", &PolyhedraGpuEngine::stoneTorquesPy, "Contact torque on each stone about its centre of mass at the last force evaluation: dict {body id: Vector3} [N m].")
 		.def("writeState", &PolyhedraGpuEngine::writeStatePy, (py::arg("path")), "Write the polyhedra system's whole state (stones, contact histories, surface, time) to the file *path* (binary; PolyhedraSystem::writeState).")
 		.def("readState", &PolyhedraGpuEngine::readStatePy, (py::arg("path")), "Read a state written by writeState into this engine's system (built the same way: same stones, shapes and walls) and sync the YADE bodies to it; a file that does not fit is refused with the reason.")
+		.def("restartState", &PolyhedraGpuEngine::restartState, "The polyhedra system's state (bytes) for a restart checkpoint. Not yet available: raises.")
+		.def("restoreRestartState", &PolyhedraGpuEngine::restoreRestartState, (py::arg("state")), "Put back what restartState() returned. Not yet available: raises.")
 	);
   // clang-format on
   DECLARE_LOGGER;

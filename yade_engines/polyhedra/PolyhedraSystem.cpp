@@ -636,7 +636,8 @@ void PolyhedraSystem::setSurfaceKinematics(const std::vector<double>& positions,
     fail("setSurfaceKinematics", "expected " + std::to_string(m.data.nodePosition.size()) +
                                      " position and velocity values, got " + std::to_string(positions.size()) +
                                      " and " + std::to_string(velocities.size()));
-  m.sync();
+  // No download first: the host's node arrays are replaced whole and uploaded, so a later download brings the same
+  // positions back (the CUDA backend would otherwise copy the whole state to the host once per coupling window).
   m.data.nodePosition = positions;
   m.data.nodeVelocity = velocities;
   if (m.started) m.backend->uploadSurface(m.data);

@@ -7,6 +7,8 @@
 #include "railcosim/Error.hpp"
 #include "railcosim/Participant.hpp"
 
+#include "InterfaceFixtures.hpp"
+
 #include <sys/socket.h>
 #include <sys/un.h>
 #include <unistd.h>
@@ -22,26 +24,9 @@ using namespace railcosim;
 
 namespace {
 
-std::string uniqueEndpoint() {
-  static std::atomic<int> counter{0};
-  return "ipc:///tmp/railcosim-test-" + std::to_string(getpid()) + "-" + std::to_string(counter++) + ".sock";
-}
-
-InterfaceMesh square() {
-  InterfaceMesh mesh;
-  mesh.coordinates = {0, 0, 0, 1, 0, 0, 1, 1, 0, 0, 1, 0};
-  mesh.triangles = {0, 1, 2, 0, 2, 3};
-  return mesh;
-}
-
-NodalKinematics restingAt(const InterfaceMesh& mesh, double time) {
-  NodalKinematics kinematics;
-  kinematics.time = time;
-  kinematics.positions = mesh.coordinates;
-  kinematics.velocities.assign(mesh.coordinates.size(), 0.0);
-  kinematics.accelerations.assign(mesh.coordinates.size(), 0.0);
-  return kinematics;
-}
+using test::restingAt;
+using test::square;
+using test::uniqueEndpoint;
 
 /// A scripted participant speaking raw protocol bytes, to send what a correct participant never would.
 struct FakePeer {

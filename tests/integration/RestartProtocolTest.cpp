@@ -7,6 +7,8 @@
 #include "railcosim/Error.hpp"
 #include "railcosim/Participant.hpp"
 
+#include "InterfaceFixtures.hpp"
+
 #include <unistd.h>
 
 #include <atomic>
@@ -17,24 +19,10 @@ using namespace railcosim;
 
 namespace {
 
-std::string uniqueEndpoint() {
-  static std::atomic<int> counter{0};
-  return "ipc:///tmp/railcosim-restart-test-" + std::to_string(getpid()) + "-" + std::to_string(counter++) + ".sock";
-}
+using test::square;
+using test::uniqueEndpoint;
 
-InterfaceMesh square() {
-  InterfaceMesh mesh;
-  mesh.coordinates = {0, 0, 0, 1, 0, 0, 1, 1, 0, 0, 1, 0};
-  mesh.triangles = {0, 1, 2, 0, 2, 3};
-  return mesh;
-}
-
-NodalKinematics restingAt(double time) {
-  NodalKinematics kinematics;
-  kinematics.time = time;
-  kinematics.positions = square().coordinates;
-  return kinematics;
-}
+NodalKinematics restingAt(double time) { return test::restingAt(square(), time); }
 
 ParticipantConfig config(const std::string& name, const std::string& endpoint, const std::string& resumedFrom = "",
                          std::uint64_t resumedWindow = 0) {

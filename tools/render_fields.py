@@ -1,8 +1,8 @@
 """Renders one time of a run's fields.xdmf to a PNG with ParaView (pvpython): particles as spheres of their radius
 coloured by contact force, the structure coloured by von Mises stress, walls and boxes translucent.
 
-usage: xvfb-run -a pvpython tools/render_fields.py RUN_DIR PNG [TIME]   (TIME: simulated s, default the last)
-Debian's ParaView renders through X: xvfb-run gives it a virtual display (no screen needed).
+usage: tools/virtual_display.sh pvpython tools/render_fields.py RUN_DIR PNG [TIME]   (TIME: simulated s, default the last)
+Debian's ParaView renders through X: tools/virtual_display.sh runs it on a private Xvfb display (no screen needed).
 """
 import os
 import sys
@@ -85,5 +85,5 @@ if __name__ == "__main__":
     shown = render(os.path.join(run, "fields.xdmf"), png, float(sys.argv[3]) if len(sys.argv) > 3 else None)
     print(f"rendered t = {shown:g} s -> {png}")
     sys.stdout.flush()
-    # Debian's VTK may fail to release the GLX context at interpreter exit under xvfb; the PNG is written.
+    # Debian's VTK may fail to release the GLX context at interpreter exit under Xvfb; the PNG is written.
     os._exit(0)

@@ -1,7 +1,7 @@
 """Opens a run's fields.xdmf in ParaView (pvpython), checks it against the run's own records, renders a PNG
 (tools/render_fields.py).
 
-usage: xvfb-run -a pvpython check_fields.py RUN_DIR PNG
+usage: tools/virtual_display.sh pvpython check_fields.py RUN_DIR PNG
 
 Oracles, each from a file the snapshots do not come from:
   time steps  = the snapshot count implied by parameters.json (duration_s, fem_dt, snapshot_every_s)
@@ -76,6 +76,6 @@ if "beam_length" in p:
 render(os.path.join(run, "fields.xdmf"), png, last)
 check("PNG written", os.path.getsize(png) > 1000, True)
 sys.stdout.flush()
-# Debian's VTK may fail to release the GLX context at interpreter exit under xvfb (an X error, exit 1) after the
+# Debian's VTK may fail to release the GLX context at interpreter exit under Xvfb (an X error, exit 1) after the
 # PNG is written: leave without that teardown.
 os._exit(1 if failures else 0)

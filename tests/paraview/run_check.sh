@@ -4,5 +4,5 @@
 set -euo pipefail
 repo=$1 out=$2
 "$repo/railcosim" run "$repo/cases/beam_uniform_load" --smoke --force --set snapshot_every_s=0.02 --out "$out"
-cd "$out"  # xvfb-run and pvpython write nothing else; keep any stray file with the run
-xvfb-run -a pvpython "$repo/tests/paraview/check_fields.py" "$out" "$out/fields.png"
+cd "$out"  # pvpython writes nothing else; keep any stray file with the run
+"$repo/tools/virtual_display.sh" pvpython "$repo/tests/paraview/check_fields.py" "$out" "$out/fields.png"

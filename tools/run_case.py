@@ -2,6 +2,7 @@
 """Runs a coupled case: starts the FEM and DEM solvers on a fresh endpoint, watches both, writes summary.json.
 
 Usage: railcosim run cases/NAME [--smoke] [--out DIR] [--force] [--set key=value ...] [--time-limit SECONDS]
+                             [--checkpoint-every SECONDS | --resume DIR]
 
 A case folder holds case.toml, case.py (one subclass of railcosim.case.Case: the hooks the runner calls,
 described in python/railcosim/case.py) and usually dem.py. case.toml has
@@ -30,6 +31,12 @@ SIGTERM, SIGHUP and SIGINT stop every solver (SIGTERM, SIGKILL after STOP_GRACE_
 the signal and the stage. The default --time-limit is 20 x expected_wall_s (scaled with duration_s), at
 least 600 s, 3600 s when the case declares no expected_wall_s; 0 means none.
 
+--checkpoint-every S has both solvers save a coordinated restart checkpoint every S seconds of simulated time into
+OUT/checkpoints (the newest two complete ones are kept). --resume DIR continues the interrupted run whose results
+folder is DIR from its newest complete checkpoint, writing into DIR; it is refused in one line, before anything is
+written, when DIR's parameters differ from this command's or the checkpoint is incomplete, damaged, of another run or
+of another protocol version (python/railcosim/checkpoints.py; docs/protocol.md section 12).
+
 Exit codes: 0 ok, 1 failed, 2 refused (command line, case, values), 3 a check failed, 4 time limit,
 128+N stopped by signal N (130 Ctrl-C, 129 SIGHUP, 143 SIGTERM).
 """
@@ -38,6 +45,7 @@ import contextlib
 import json
 import math
 import os
+import re
 import secrets
 import shutil
 import signal
@@ -48,7 +56,7 @@ import threading
 import time
 import traceback
 
-from railcosim import parameters
+from railcosim import checkpoints, parameters, snapshots
 from railcosim.case import CaseError, load_case
 from railcosim.parameters import ParameterError
 
@@ -148,10 +156,13 @@ def process_group_stats():
 class Solver:
     """One child process in its own process group, output saved to NAME.log (and echoed with a prefix)."""
 
-    def __init__(self, name, argv, out, env, echo=True):
+    def __init__(self, name, argv, out, env, echo=True, append_log=None):
+        """`append_log`: a line that starts this process's part of NAME.log, which it extends (a resumed run)."""
         self.name, self.echo = name, echo
         self.log_name = f"{name}.log"
-        self.log = open(os.path.join(out, self.log_name), "w", buffering=1)
+        self.log = open(os.path.join(out, self.log_name), "a" if append_log else "w", buffering=1)
+        if append_log:
+            self.log.write(f"{append_log}\n")
         self.last_lines = []
         self.code = None
         self.stopped_by = None      # why the runner stopped it, if it did
@@ -338,9 +349,11 @@ RECORDING_FILE = "interface.rec"  # --record: every interface message of the run
 class Run:
     """One run of a case, from its partial folder to the summary and the rename into place."""
 
-    def __init__(self, name, case, params, out, args, time_limit, guard):
+    def __init__(self, name, case, params, out, args, time_limit, guard, resume=None):
+        """`resume`: (checkpoint folder, manifest) when the run continues the interrupted one in `out`."""
         self.name, self.case, self.params, self.out = name, case, params, out
         self.args, self.time_limit, self.guard = args, time_limit, guard
+        self.resume = resume
         self.stage = "start"
         self.status, self.error = "ok", None
         self.solvers, self.references = [], []
@@ -353,7 +366,8 @@ class Run:
         ipc_folder = None
         try:
             with self.guard.deferred():
-                self.partial = make_partial_folder(self.out)
+                # A resumed run goes on in the interrupted run's folder, which holds its checkpoints.
+                self.partial = self.out if self.resume else make_partial_folder(self.out)
                 self.guard.set_time_limit(self.time_limit)
                 ipc_folder = make_ipc_folder()
                 self._write_parameters()
@@ -409,9 +423,13 @@ class Run:
 
     def _environment(self, token=None):
         env = dict(os.environ, PYTHONUNBUFFERED="1")  # YADE's Python prints reach dem.log as they happen
-        env.pop("RAILCOSIM_BRIDGE_TOKEN", None)
+        for variable in ("RAILCOSIM_BRIDGE_TOKEN",) + checkpoints.ENVIRONMENT:
+            env.pop(variable, None)
         if token:
             env["RAILCOSIM_BRIDGE_TOKEN"] = token  # never on the command line: argv is public in ps
+            env.update(checkpoints.solver_environment(self.partial, checkpoints.run_identity(self.name, self.params),
+                                                      self.args.checkpoint_every,
+                                                      self.resume[0] if self.resume else None))
         return env
 
     def _run_coupled(self, ipc_folder, start):
@@ -419,6 +437,13 @@ class Run:
         endpoint = f"ipc://{os.path.join(ipc_folder, 'bridge.sock')}"
         env = self._environment(secrets.token_hex(16))
         say(f"[run] case {self.name}{' (smoke)' if self.args.smoke else ''} -> {self.out}")
+        if self.resume:
+            manifest = self.resume[1]
+            self.summary["resumed_from"] = {"checkpoint": manifest["name"], "window": manifest["window"],
+                                            "time_s": manifest["time"]}
+            say(f"[run] resuming from {self.resume[0]} (window {manifest['window']}, t = {manifest['time']:.6g} s)")
+        if self.args.checkpoint_every is not None:
+            self.summary["checkpoints"] = {"every_s": self.args.checkpoint_every, "folder": checkpoints.FOLDER}
         say(f"[run] endpoint {endpoint}; time limit {self.time_limit:.0f} s" if self.time_limit
             else f"[run] endpoint {endpoint}; no time limit")
         commands = [("fem", self.case.fem_command(self.params, endpoint, self.partial)),
@@ -459,9 +484,12 @@ class Run:
 
     def _start(self, group, name, argv, env, echo=True):
         """Starts a solver into group (a signal waits until it is recorded there); False if it cannot start."""
+        append_log = None
+        if self.resume and group is self.solvers:
+            append_log = f"[run] ---- resumed from {self.resume[0]} ----"
         with self.guard.deferred():
             try:
-                group.append(Solver(name, argv, self.partial, env, echo))
+                group.append(Solver(name, argv, self.partial, env, echo, append_log))
             except OSError as e:
                 self.status, self.error = "failed", f"could not start {name} ({argv[0]}): {e}"
                 self.early_end = f"{name} could not be started"
@@ -526,6 +554,9 @@ class Run:
 
     def _postprocess(self):
         self.stage = "post-processing"
+        fields = snapshots.assemble(self.partial)  # ParaView's fields.xdmf, before the case reads the run
+        if fields:
+            self.summary["snapshots"] = fields
         self.summary.update(self.case.postprocess(self.params, self.partial))
         for check in self.summary.get("checks", []):
             check["passed"] = bool(check["value"] <= check["limit"])
@@ -548,6 +579,9 @@ class Run:
                    "wall_time_s": round(self.coupled_wall, 3), "time_limit_s": self.time_limit or None,
                    "parameters": self.params}
         summary.update(self.summary)
+        if "checkpoints" in summary:
+            newest = checkpoints.latest(self.partial)
+            summary["checkpoints"]["latest"] = os.path.basename(newest) if newest else None
         if self.solvers or self.references:
             summary["solvers"] = {s.name: s.report() for s in self.solvers + self.references}
         if self.error:
@@ -560,6 +594,13 @@ class Run:
     def _move_into_place(self):
         """Renames the partial folder to OUT; an existing OUT (--force) is replaced only by a finished run.
         Returns where the run's files are and a note when that is not OUT."""
+        if self.resume:
+            # A resumed run stays in its folder; one left as OUT.partial-XXXXXXXX moves to OUT once it has finished.
+            target = re.sub(r"\.partial-[^/]+$", "", self.out)
+            if self.status == "ok" and target != self.out and not os.path.exists(target):
+                os.rename(self.out, target)
+                return target, None
+            return self.out, None
         if not os.path.exists(self.out):
             os.rename(self.partial, self.out)
             return self.out, None
@@ -601,6 +642,16 @@ def time_limit_argument(text):
     return value
 
 
+def simulated_seconds(text):
+    try:
+        value = float(text)
+    except ValueError:
+        value = math.nan
+    if not math.isfinite(value) or value <= 0:
+        raise argparse.ArgumentTypeError(f"{text} is not a positive number of seconds of simulated time")
+    return value
+
+
 def main(argv, guard):
     parser = argparse.ArgumentParser(prog="railcosim run", description="Run a coupled DEM-FEM case.")
     parser.add_argument("case", help="case folder, e.g. cases/beam_uniform_load")
@@ -619,6 +670,12 @@ def main(argv, guard):
                              "are compared with the recorded ones (no post-processing)")
     parser.add_argument("--time-limit", type=time_limit_argument, metavar="SECONDS",
                         help="wall-clock limit of the whole run (default: from the case, at least 600 s; 0: none)")
+    parser.add_argument("--checkpoint-every", type=simulated_seconds, metavar="SECONDS",
+                        help="save a restart checkpoint of both solvers every SECONDS of simulated time into "
+                             "OUT/checkpoints (the newest two are kept)")
+    parser.add_argument("--resume", metavar="DIR",
+                        help="continue the interrupted run whose results folder is DIR from its newest complete "
+                             "checkpoint, writing into DIR (same case, --smoke and --set values)")
     args = parser.parse_args(argv)
 
     case_dir = os.path.abspath(args.case.rstrip("/"))
@@ -637,6 +694,18 @@ def main(argv, guard):
     for recording in (args.replay_fem, args.replay_dem):
         if recording and not os.path.isfile(recording):
             raise CaseError(f"no such recording: {recording} (made by ./railcosim run CASE --record)")
+    replaying = args.replay_fem or args.replay_dem
+    if args.resume and (args.record or replaying):
+        raise CaseError("--resume does not combine with --record or --replay-*: a recording covers one run from its "
+                        "first window")
+    if args.checkpoint_every is not None and replaying:
+        raise CaseError("--checkpoint-every does not combine with --replay-*: the played-back side saves no state")
+    if args.resume:
+        if args.out or args.force:
+            raise CaseError("--resume DIR continues in DIR: --out and --force do not apply")
+        out = os.path.abspath(args.resume.rstrip("/"))
+        resume = checkpoints.resume_checkpoint(out, name, params)
+        return Run(name, case, params, out, args, time_limit, guard, resume).execute()
     out = os.path.abspath(args.out or os.path.join(os.getcwd(), "results", name + ("-smoke" if args.smoke else "")))
     if os.path.exists(out) and not args.force:
         raise CaseError(f"results folder {out} already exists; pass --force to replace it or --out to choose another")

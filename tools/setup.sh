@@ -32,6 +32,7 @@ packages=(
   freefem++ libfreefem++-dev
   clang libclang-rt-14-dev iproute2 util-linux
   slurm-wlm munge
+  paraview python3-paraview xvfb xauth
 )
 
 # with_progress LABEL LOG COMMAND...: runs COMMAND (output appended to LOG) and prints the percentage

@@ -3,7 +3,8 @@
 // Usage: polyhedra_bench [--n N]... [--steps S] [--prepare P] [--backend cpu|cuda|auto] [--json FILE]
 //   Builds a shallow bed (8 layers) of about N dodecahedral stones (4 templates, random orientations),
 //   packs it onto the floor in P coarse steps, then times S production steps and prints one
-//   JSON record per N (also written to FILE as a JSON list).
+//   JSON record per N (also written to FILE as a JSON list), with the cost of a state snapshot (saveSnapshot,
+//   restoreSnapshot: the rollback of an implicit coupling window) and of writing the state to memory.
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -103,7 +104,21 @@ int main(int argc, char** argv) {
     const auto start = std::chrono::steady_clock::now();
     system.step(options.steps);
     const double wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-    const StepStatistics& stats = system.lastStatistics();
+    const StepStatistics stats = system.lastStatistics();
+    // Snapshot cost: the mean of 10 saves and of 10 restores, and one writeState into memory.
+    auto seconds = [](std::chrono::steady_clock::time_point t) {
+      return std::chrono::duration<double>(std::chrono::steady_clock::now() - t).count();
+    };
+    auto t0 = std::chrono::steady_clock::now();
+    for (int k = 0; k < 10; ++k) system.saveSnapshot();
+    const double saveSeconds = seconds(t0) / 10;
+    t0 = std::chrono::steady_clock::now();
+    for (int k = 0; k < 10; ++k) system.restoreSnapshot();
+    const double restoreSeconds = seconds(t0) / 10;
+    std::ostringstream state;
+    t0 = std::chrono::steady_clock::now();
+    system.writeState(state);
+    const double writeSeconds = seconds(t0);
     double maxSpeed = 0.0; // how settled the bed is (it decides how many list rebuilds are needed)
     const std::vector<double> velocities = system.velocities();
     for (std::size_t k = 0; k + 2 < velocities.size(); k += 3)
@@ -133,7 +148,9 @@ int main(int argc, char** argv) {
            << ", \"dangerous_rebuilds\": " << stats.dangerousRebuilds
            << ", \"neighbour_rebuilds\": " << stats.neighbourRebuilds << ", \"max_speed_m_s\": " << maxSpeed
            << ", \"prepare_steps\": " << options.prepare << ", \"prepare_wall_s\": " << prepareSeconds
-           << ", \"time_step_s\": " << p.timeStep << "}";
+           << ", \"time_step_s\": " << p.timeStep << ", \"snapshot_save_s\": " << saveSeconds
+           << ", \"snapshot_restore_s\": " << restoreSeconds << ", \"write_state_s\": " << writeSeconds
+           << ", \"state_bytes\": " << state.str().size() << "}";
     records.push_back(record.str());
     std::printf("%-30s %10zu %6d %8.3f %10.4f %14.4e %14.4e %10.2f %10.4f\n", device.substr(0, 30).c_str(),
                 system.stoneCount(), options.steps, wall, 1e3 * wall / options.steps, particleSteps, contactsPerSecond,

@@ -6,7 +6,9 @@
 
 #include <cstdio>
 #include <cstdlib>
+#include <fstream>
 #include <iostream>
+#include <sstream>
 
 namespace railcosim::dummy {
 
@@ -104,14 +106,54 @@ double SpringMass::advance(double& displacement, double& velocity, double force,
   return (force - stiffness * displacement) / mass;
 }
 
-ParticipantConfig participantConfig(const Options& options, CouplingScheme scheme) {
+ParticipantConfig participantConfig(const Options& options, CouplingScheme scheme,
+                                    const std::optional<ResumedState>& resumed) {
   ParticipantConfig config;
   config.name = options.text("name");
   config.endpoint = options.text("endpoint");
   config.timeoutSeconds = options.number("timeout");
   config.heartbeatSeconds = options.number("heartbeat");
   config.couplingScheme = toString(scheme);
+  if (resumed) {
+    config.resumedFrom = resumed->manifest.name;
+    config.resumedWindow = resumed->manifest.window;
+  }
   return config;
+}
+
+std::optional<ResumedState> resumedState(const std::string& file) {
+  const CheckpointSettings settings = CheckpointSettings::fromEnvironment();
+  if (settings.resumeFrom.empty()) return std::nullopt;
+  ResumedState resumed;
+  resumed.manifest = verifyCheckpoint(settings.resumeFrom);
+  std::ifstream in(settings.resumeFrom + "/" + file, std::ios::binary);
+  if (!in) throw CheckpointError("checkpoint " + settings.resumeFrom + " has no " + file);
+  std::ostringstream content;
+  content << in.rdbuf();
+  resumed.state = content.str();
+  return resumed;
+}
+
+CheckpointFile writeStateFile(const std::string& name, const std::string& file, const std::string& side,
+                              const std::string& state) {
+  const std::string root = CheckpointSettings::fromEnvironment().folder;
+  if (root.empty()) throw Error("restart checkpoint " + name + ": RAILCOSIM_CHECKPOINT_DIR is not set");
+  const std::string staging = stagingFolder(root, name);
+  std::ofstream out(staging + "/" + file, std::ios::binary | std::ios::trunc);
+  out << state;
+  out.close();
+  if (!out) throw Error("restart checkpoint " + name + ": cannot write " + staging + "/" + file);
+  return describeCheckpointFile(staging, file, side);
+}
+
+void writeResult(const std::string& path, const std::string& text) {
+  if (path.empty()) return;
+  {
+    std::ofstream out(path + ".tmp", std::ios::trunc);
+    out << text;
+    if (!out) throw Error("cannot write " + path + ".tmp");
+  }
+  if (std::rename((path + ".tmp").c_str(), path.c_str()) != 0) throw Error("cannot rename " + path + ".tmp");
 }
 
 int runReportingErrors(const char* program, const std::function<int()>& body) {

@@ -1,6 +1,7 @@
 // Shared pieces of the stand-in participants: command-line parsing, the test surface and the oracle.
 #pragma once
 
+#include "railcosim/Checkpoint.hpp"
 #include "railcosim/InterfaceMesh.hpp"
 #include "railcosim/Participant.hpp"
 #include "railcosim/CouplingScheme.hpp"
@@ -8,6 +9,7 @@
 #include <cmath>
 #include <functional>
 #include <map>
+#include <optional>
 #include <stdexcept>
 #include <string>
 #include <vector>
@@ -52,8 +54,23 @@ struct SpringMass {
   double advance(double& displacement, double& velocity, double force, double dt) const;
 };
 
-/// The participant settings both stand-ins take from --name, --endpoint, --timeout, --heartbeat.
-ParticipantConfig participantConfig(const Options& options, CouplingScheme scheme);
+/// Restart checkpoints of a stand-in, in the folders `railcosim run` sets (CheckpointSettings::fromEnvironment):
+/// the checkpoint resumed from (checked: manifest, sizes, CRC-32) and this side's state file in it.
+struct ResumedState {
+  CheckpointManifest manifest;
+  std::string state; // the side's state file, whole
+};
+/// Empty unless RAILCOSIM_RESUME names a checkpoint; `file` is the side's state file in it.
+std::optional<ResumedState> resumedState(const std::string& file);
+/// The participant settings both stand-ins take from --name, --endpoint, --timeout, --heartbeat, and the checkpoint
+/// they resumed from, if any (announced at the handshake).
+ParticipantConfig participantConfig(const Options& options, CouplingScheme scheme,
+                                    const std::optional<ResumedState>& resumed = std::nullopt);
+/// Writes `state` as `file` into the staging folder of checkpoint `name` and describes it.
+CheckpointFile writeStateFile(const std::string& name, const std::string& file, const std::string& side,
+                              const std::string& state);
+/// Writes `text` to `path` through a temporary file and a rename ("" for no file).
+void writeResult(const std::string& path, const std::string& text);
 
 /// Runs a stand-in's main body, prints the usage on --help, and maps failures to its documented exit status (2 peer
 /// lost, 3 protocol error, 1 anything else), printing "PROGRAM: KIND: message" on stderr.

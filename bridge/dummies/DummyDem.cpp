@@ -4,11 +4,14 @@
 #include "railcosim/Error.hpp"
 #include "railcosim/CouplingScheme.hpp"
 #include "railcosim/Participant.hpp"
+#include "railcosim/StateStream.hpp"
 
 #include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <cstdlib>
+#include <sstream>
 #include <thread>
 
 using namespace railcosim;
@@ -32,7 +35,14 @@ const char* usage =
     "  --mass M --stiffness K   spring-mass per FEM node, for the check (1 kg, 1e6 N/m)\n"
     "  --no-check       do not compare the kinematics with the closed form\n"
     "  --compute-ms T   pretend to compute T ms per window (0)\n"
+    "  --checkpoint-every S  order a restart checkpoint every S seconds of simulated time (default: the environment's\n"
+    "                   RAILCOSIM_CHECKPOINT_EVERY, else none), written into RAILCOSIM_CHECKPOINT_DIR; "
+    "RAILCOSIM_RESUME\n"
+    "                   names the checkpoint to resume from\n"
+    "  --result FILE    write the figures of the run (hexadecimal floats, exact) to FILE\n"
     "Exit status: 0 success, 2 peer lost, 3 protocol error, 1 other error or failed check.";
+
+const char* const stateFile = "dem_state.bin";
 
 } // namespace
 
@@ -55,7 +65,9 @@ int main(int argc, char** argv) {
                                   {"max-iterations", "30"},
                                   {"relaxation", "0.5"},
                                   {"no-aitken", "false"},
-                                  {"absolute-tolerance", "0"}},
+                                  {"absolute-tolerance", "0"},
+                                  {"checkpoint-every", ""},
+                                  {"result", ""}},
                                  usage);
     const CouplingScheme scheme = parseCouplingScheme(options.text("scheme"));
     long windows = options.integer("windows");
@@ -65,7 +77,8 @@ int main(int argc, char** argv) {
     model.mass = options.number("mass");
     model.stiffness = options.number("stiffness");
 
-    DemParticipant participant(dummy::participantConfig(options, scheme));
+    const auto resumed = dummy::resumedState(stateFile);
+    DemParticipant participant(dummy::participantConfig(options, scheme, resumed));
     const InterfaceSetup setup = participant.initialize();
     const std::size_t nodes = setup.mesh.nodeCount();
     const double dt = setup.femTimeStep;
@@ -78,7 +91,36 @@ int main(int argc, char** argv) {
     settings.implicit.maxIterations = static_cast<int>(options.integer("max-iterations"));
     settings.implicit.relaxation = options.number("relaxation");
     settings.implicit.aitken = !options.flag("no-aitken");
-    const auto coupling = DemCouplingScheme::create(settings, participant, setup);
+    // The oracle's state and the window to go on from; a resumed run reads them (and the scheme's) from its checkpoint.
+    double oracleU = 0.0, oracleV = 0.0, amplitude = 0.0;
+    double maxError[3] = {0.0, 0.0,
+                          0.0}; // closed form: relative to the amplitudes F/k, w F/k, F/m; bed: u relative to max |u|
+    double maxBedError = 0.0;
+    long firstWindow = 0;
+    std::unique_ptr<DemCouplingScheme> coupling;
+    if (resumed) {
+      std::istringstream in(resumed->state);
+      StateReader saved(in, "dem_state.bin of " + resumed->manifest.name);
+      saved.section("dummy dem");
+      firstWindow = saved.i64();
+      oracleU = saved.real();
+      oracleV = saved.real();
+      amplitude = saved.real();
+      for (double& error : maxError) error = saved.real();
+      maxBedError = saved.real();
+      std::istringstream schemeState(saved.bytes());
+      coupling = DemCouplingScheme::resume(settings, participant, setup, schemeState);
+    } else {
+      coupling = DemCouplingScheme::create(settings, participant, setup);
+    }
+    const std::string everyText =
+        options.text("checkpoint-every").empty()
+            ? (std::getenv("RAILCOSIM_CHECKPOINT_EVERY") ? std::getenv("RAILCOSIM_CHECKPOINT_EVERY") : "")
+            : options.text("checkpoint-every");
+    const long checkpointWindows = everyText.empty() ? 0 : std::max(1L, std::lround(std::stod(everyText) / dt));
+    const CheckpointSettings checkpoints = CheckpointSettings::fromEnvironment();
+    if (checkpointWindows > 0 && checkpoints.folder.empty())
+      throw Error("checkpoints every " + everyText + " s need RAILCOSIM_CHECKPOINT_DIR");
     const double contactStiffness = options.number("contact-stiffness");
     if (contactStiffness != 0.0 && !coupling->iterates()) {
       throw Error("--contact-stiffness needs a scheme that iterates a window (implicit): with " + toString(scheme) +
@@ -100,10 +142,6 @@ int main(int argc, char** argv) {
       return std::pair<double, double>(u, v);
     };
     const double C = advanced(0.0, 0.0, 1.0).first; // displacement per unit constant force over one window
-    double oracleU = 0.0, oracleV = 0.0, amplitude = 0.0;
-    double maxError[3] = {0.0, 0.0,
-                          0.0}; // closed form: relative to the amplitudes F/k, w F/k, F/m; bed: u relative to max |u|
-    double maxBedError = 0.0;
     auto checkKinematics = [&](const NodalKinematics& kinematics) {
       if (contactStiffness != 0.0) {
         const double free = advanced(oracleU, oracleV, 0.0).first;
@@ -133,7 +171,32 @@ int main(int argc, char** argv) {
 
     std::vector<double> forces(3 * nodes, 0.0), positions, velocities;
     long unconverged = 0;
-    for (long window = 0; window < windows; ++window) {
+    // A restart checkpoint after window `window`: the FEM side's part first, then this side's and the manifest.
+    auto checkpoint = [&](long completed) {
+      const std::string name = checkpointName(static_cast<std::uint64_t>(completed));
+      prepareCheckpoint(checkpoints.folder, name);
+      CheckpointManifest manifest;
+      manifest.name = name;
+      manifest.window = static_cast<std::uint64_t>(completed);
+      manifest.time = static_cast<double>(completed) * dt;
+      manifest.scheme = toString(scheme);
+      manifest.run = checkpoints.run;
+      manifest.files = coupling->orderRestart(name, manifest.time);
+      std::ostringstream out, schemeState;
+      StateWriter saved(out);
+      saved.section("dummy dem");
+      saved.i64(completed);
+      saved.real(oracleU);
+      saved.real(oracleV);
+      saved.real(amplitude);
+      for (double error : maxError) saved.real(error);
+      saved.real(maxBedError);
+      coupling->writeState(schemeState);
+      saved.bytes(schemeState.str());
+      manifest.files.push_back(dummy::writeStateFile(name, stateFile, "dem", out.str()));
+      commitCheckpoint(checkpoints.folder, manifest);
+    };
+    for (long window = firstWindow; window < windows; ++window) {
       WindowResult result;
       do {
         coupling->surfaceAt(dt, positions, velocities);
@@ -150,6 +213,7 @@ int main(int argc, char** argv) {
         break;
       }
       if (check) checkKinematics(coupling->lastReceived());
+      if (checkpointWindows > 0 && (window + 1) % checkpointWindows == 0) checkpoint(window + 1);
     }
     participant.finalize();
 
@@ -177,6 +241,13 @@ int main(int argc, char** argv) {
         statistics.bridgeSeconds() * perExchange, statistics.encodeSeconds * perExchange,
         statistics.transferSeconds * perExchange, statistics.waitSeconds * perExchange, maxError[0], maxError[1],
         maxError[2], bedError, check ? "" : " (not checked)");
+    std::ostringstream result;
+    result << std::hexfloat << "windows " << windows << "\npasses " << passes << "\nerrors " << maxError[0] << ' '
+           << maxError[1] << ' ' << maxError[2] << "\nbed " << maxBedError << "\noracle " << oracleU << ' ' << oracleV
+           << "\nlast";
+    for (double position : coupling->lastReceived().positions) result << ' ' << position;
+    result << '\n';
+    dummy::writeResult(options.text("result"), result.str());
     if (unconverged > 0)
       std::fprintf(
           stderr,

@@ -4,10 +4,12 @@
 #include "railcosim/Error.hpp"
 #include "railcosim/Participant.hpp"
 #include "railcosim/CouplingScheme.hpp"
+#include "railcosim/StateStream.hpp"
 
 #include <chrono>
 #include <cstdio>
 #include <iostream>
+#include <sstream>
 #include <thread>
 
 using namespace railcosim;
@@ -28,7 +30,12 @@ const char* usage =
     "                   saved start state whenever the DEM side sends another pass over it\n"
     "  --mass M         mass per node [kg] (1);  --stiffness K  spring per node [N/m] (1e6)\n"
     "  --compute-ms T   pretend to compute T ms per window (0)\n"
+    "  --result FILE    write the final nodal state (hexadecimal floats, exact) and the counts to FILE\n"
+    "Restart checkpoints as the real solvers: ordered by the DEM side, written into RAILCOSIM_CHECKPOINT_DIR;\n"
+    "RAILCOSIM_RESUME names the checkpoint to resume from.\n"
     "Exit status: 0 success, 2 peer lost, 3 protocol error, 1 other error.";
+
+const char* const stateFile = "fem_state.bin";
 
 } // namespace
 
@@ -48,7 +55,8 @@ int main(int argc, char** argv) {
                                   {"scheme", "justInTime"},
                                   {"mass", "1"},
                                   {"stiffness", "1e6"},
-                                  {"compute-ms", "0"}},
+                                  {"compute-ms", "0"},
+                                  {"result", ""}},
                                  usage);
     const CouplingScheme scheme = parseCouplingScheme(options.text("scheme"));
     const long side = dummy::sideForNodes(options.integer("nodes"));
@@ -69,11 +77,28 @@ int main(int argc, char** argv) {
     state.velocities.assign(3 * nodes, 0.0);
     state.accelerations.assign(3 * nodes, 0.0);
 
-    FemParticipant participant(dummy::participantConfig(options, scheme));
+    std::vector<double> savedDisplacement, savedVelocity;
+    std::uint64_t passes = 0; // FEM solves (a scheme that repeats windows solves a window once per pass)
+    const auto resumed = dummy::resumedState(stateFile);
+    std::string schemeState;
+    if (resumed) {
+      std::istringstream in(resumed->state);
+      StateReader saved(in, "fem_state.bin of " + resumed->manifest.name);
+      saved.section("dummy fem");
+      displacement = saved.reals();
+      velocity = saved.reals();
+      appliedForce = saved.reals();
+      savedDisplacement = saved.reals();
+      savedVelocity = saved.reals();
+      passes = saved.u64();
+      state = saved.kinematics();
+      schemeState = saved.bytes();
+      if (displacement.size() != nodes) saved.fail("the state is of " + std::to_string(displacement.size()) + " nodes");
+    }
+    FemParticipant participant(dummy::participantConfig(options, scheme, resumed));
     participant.initialize(mesh, dt, state);
 
     // One FEM step t_i -> t_i+1 with the vertical nodal forces in appliedForce.
-    std::uint64_t passes = 0; // FEM solves (a scheme that repeats windows solves a window once per pass)
     auto step = [&](std::uint64_t window) {
       ++passes;
       if (computeTime.count() > 0) std::this_thread::sleep_for(computeTime);
@@ -87,11 +112,33 @@ int main(int argc, char** argv) {
     };
 
     // The scheme orders the messages; this loop only solves, saves and restores as it is told.
-    const auto coupling = FemCouplingScheme::create(participant, nodes);
+    std::unique_ptr<FemCouplingScheme> coupling;
+    if (resumed) {
+      std::istringstream in(schemeState);
+      coupling = FemCouplingScheme::resume(participant, nodes, in);
+    } else {
+      coupling = FemCouplingScheme::create(participant, nodes);
+    }
     std::vector<double> forces;
-    std::vector<double> savedDisplacement, savedVelocity;
     while (maxWindows <= 0 || coupling->windowsReceived() < static_cast<std::uint64_t>(maxWindows)) {
-      if (!coupling->beginStep(forces)) break;
+      const FemCouplingScheme::Action action = coupling->beginStep(forces);
+      if (action == FemCouplingScheme::Action::Stop) break;
+      if (action == FemCouplingScheme::Action::SaveRestart) {
+        std::ostringstream out, schemeOut;
+        StateWriter saved(out);
+        saved.section("dummy fem");
+        saved.reals(displacement);
+        saved.reals(velocity);
+        saved.reals(appliedForce);
+        saved.reals(savedDisplacement);
+        saved.reals(savedVelocity);
+        saved.u64(passes);
+        saved.kinematics(state);
+        coupling->writeState(schemeOut);
+        saved.bytes(schemeOut.str());
+        coupling->confirmRestart({dummy::writeStateFile(coupling->restartOrder().name, stateFile, "fem", out.str())});
+        continue;
+      }
       if (maxWindows > 0 && coupling->window() >= static_cast<std::uint64_t>(maxWindows))
         break; // no step past the last window
       if (coupling->requiresWritingCheckpoint()) {
@@ -108,6 +155,10 @@ int main(int argc, char** argv) {
     }
     const std::uint64_t window = coupling->windowsReceived();
     participant.finalize();
+    std::ostringstream result;
+    result << std::hexfloat << "windows " << window << "\npasses " << passes << "\n";
+    for (std::size_t n = 0; n < nodes; ++n) result << displacement[n] << ' ' << velocity[n] << '\n';
+    dummy::writeResult(options.text("result"), result.str());
     const BridgeStatistics& statistics = participant.statistics();
     const double perExchange = statistics.exchanges > 0 ? 1e6 / static_cast<double>(statistics.exchanges) : 0.0;
     std::printf(

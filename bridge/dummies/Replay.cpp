@@ -4,6 +4,7 @@
 
 #include "io/Recording.hpp"
 #include "protocol/Message.hpp"
+#include "railcosim/Checkpoint.hpp"
 #include "railcosim/Error.hpp"
 #include "railcosim/Participant.hpp"
 
@@ -25,6 +26,9 @@ const char* usage =
     "  --heartbeat S     keepalive interval [s] (1)\n"
     "  --tolerance T     largest relative difference of an answer still counted equal (1e-12)\n"
     "Prints the largest difference between the live side's answers and the recorded ones.\n"
+    "Restart checkpoints in the recording are exchanged again: playing the FEM side, the live DEM side's orders must\n"
+    "be the recorded ones and are answered with the recorded file list; playing the DEM side, the orders go to the\n"
+    "live FEM side (into RAILCOSIM_CHECKPOINT_DIR), whose file list must be the recorded one (names, sizes, CRC-32).\n"
     "Exit status: 0 answers equal within the tolerance, 1 they differ (or other error), 2 peer lost, 3 protocol error.";
 
 /// A recorded message, decoded far enough to replay it.
@@ -48,6 +52,16 @@ struct Difference {
     worst = std::max(worst, relative);
     ++compared;
     if (relative > tolerance) ++differing;
+  }
+  /// A checkpoint's files: the same names, sizes and CRC-32 (a solver that saves the same state writes the same bytes).
+  void add(const std::vector<CheckpointFile>& live, const std::vector<CheckpointFile>& recorded) {
+    bool same = live.size() == recorded.size();
+    for (std::size_t k = 0; same && k < live.size(); ++k)
+      same =
+          live[k].name == recorded[k].name && live[k].bytes == recorded[k].bytes && live[k].crc32 == recorded[k].crc32;
+    if (!same) worst = INFINITY;
+    ++compared;
+    if (!same) ++differing;
   }
 };
 
@@ -96,6 +110,8 @@ int main(int argc, char** argv) {
     config.timeoutSeconds = options.number("timeout");
     config.heartbeatSeconds = options.number("heartbeat");
     config.couplingScheme = playedHello->couplingScheme;
+    config.resumedFrom = playedHello->resumedFrom; // a recording of a resumed run pairs with a resumed live side
+    config.resumedWindow = playedHello->resumedWindow;
 
     Difference difference;
     long played = 0;
@@ -106,22 +122,38 @@ int main(int argc, char** argv) {
         const protocol::MessageType type = step.header.type;
         if (type == protocol::MessageType::Hello || type == protocol::MessageType::InterfaceMesh) continue;
         if (type == protocol::MessageType::Abort) break; // the recorded run failed here
-        if (type == protocol::MessageType::Forces && !step.fromPlayed) {
-          const auto live = participant.receiveForces();
-          if (!live)
+        if ((type == protocol::MessageType::Forces || type == protocol::MessageType::Checkpoint) && !step.fromPlayed) {
+          const FemIncoming live = participant.receive();
+          if (live.kind == FemIncoming::Kind::Finalized)
             throw PeerLostError("the DEM side finalized before the recorded " + protocol::describe(step.header));
+          if ((live.kind == FemIncoming::Kind::Checkpoint) != (type == protocol::MessageType::Checkpoint))
+            throw Error(std::string("the DEM side sent ") +
+                        (live.kind == FemIncoming::Kind::Checkpoint
+                             ? "checkpoint order " + live.checkpoint.name
+                             : "forces of window " + std::to_string(live.forces.window)) +
+                        " where the recording has " + protocol::describe(step.header));
+          if (live.kind == FemIncoming::Kind::Checkpoint) {
+            const CheckpointOrder recorded = protocol::decodeCheckpoint(step.header, step.bytes->data());
+            if (live.checkpoint.window != recorded.window || live.checkpoint.name != recorded.name)
+              throw Error("the DEM side ordered checkpoint " + live.checkpoint.name + " where the recording has " +
+                          recorded.name);
+            continue;
+          }
           const ForceMessage recorded = protocol::decodeForces(step.header, step.bytes->data(), nodes);
-          if (live->window != recorded.window || live->iteration != recorded.iteration)
-            throw Error("the DEM side sent forces of window " + std::to_string(live->window) + " (iteration " +
-                        std::to_string(live->iteration) + ") where the recording has " +
+          if (live.forces.window != recorded.window || live.forces.iteration != recorded.iteration)
+            throw Error("the DEM side sent forces of window " + std::to_string(live.forces.window) + " (iteration " +
+                        std::to_string(live.forces.iteration) + ") where the recording has " +
                         protocol::describe(step.header));
-          difference.add(live->forces, recorded.forces, tolerance);
+          difference.add(live.forces.forces, recorded.forces, tolerance);
+        } else if (type == protocol::MessageType::CheckpointWritten && step.fromPlayed) {
+          participant.confirmCheckpoint(step.header.window, decodeCheckpointFiles(protocol::decodeCheckpointWritten(
+                                                                step.header, step.bytes->data())));
         } else if (type == protocol::MessageType::Kinematics && step.fromPlayed) {
           participant.sendKinematics(step.header.window,
                                      protocol::decodeKinematics(step.header, step.bytes->data(), nodes));
           ++played;
         } else if (type == protocol::MessageType::Finalize) {
-          if (!step.fromPlayed && participant.receiveForces())
+          if (!step.fromPlayed && participant.receive().kind != FemIncoming::Kind::Finalized)
             throw Error("the DEM side went on where the recorded run ended");
           break;
         }
@@ -129,6 +161,7 @@ int main(int argc, char** argv) {
       participant.finalize();
     } else {
       DemParticipant participant(config);
+      std::vector<CheckpointFile> liveFiles; // the live FEM side's answer to the checkpoint ordered last
       const InterfaceSetup setup = participant.initialize();
       if (setup.mesh.coordinates != meshSetup->mesh.coordinates || setup.mesh.triangles != meshSetup->mesh.triangles)
         throw Error("the FEM side's interface mesh differs from the recorded one (" +
@@ -140,6 +173,15 @@ int main(int argc, char** argv) {
         if (type == protocol::MessageType::Forces && step.fromPlayed) {
           participant.sendForces(protocol::decodeForces(step.header, step.bytes->data(), nodes));
           ++played;
+        } else if (type == protocol::MessageType::Checkpoint && step.fromPlayed) {
+          const CheckpointOrder order = protocol::decodeCheckpoint(step.header, step.bytes->data());
+          const std::string root = CheckpointSettings::fromEnvironment().folder;
+          if (!root.empty()) prepareCheckpoint(root, order.name); // where the live FEM side writes its part
+          liveFiles = participant.orderCheckpoint(order);
+          ++played;
+        } else if (type == protocol::MessageType::CheckpointWritten && !step.fromPlayed) {
+          difference.add(liveFiles,
+                         decodeCheckpointFiles(protocol::decodeCheckpointWritten(step.header, step.bytes->data())));
         } else if (type == protocol::MessageType::Kinematics && !step.fromPlayed) {
           const NodalKinematics live = participant.receiveKinematics(step.header.window);
           const NodalKinematics recorded = protocol::decodeKinematics(step.header, step.bytes->data(), nodes);

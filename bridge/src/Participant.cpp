@@ -49,6 +49,7 @@ public:
   /// Statistics cover the coupled run only: the handshake (and waiting for the peer to start) is left out.
   void setHandshakeDone() {
     makeOrder();
+    if (!config_.resumedFrom.empty()) order_->resumeAt(config_.resumedWindow);
     handshakeDone_ = true;
     statistics_ = BridgeStatistics{};
   }
@@ -250,8 +251,9 @@ public:
       throw PeerLostError(self() + ": " + peerLabel() + " aborted the run while this side was waiting for " +
                           waitingFor + ": " + reason);
     }
-    // Finalize is bookkeeping, not an exchange of interface data.
-    if (countAsExchange && header.type != protocol::MessageType::Finalize) {
+    // Finalize and Checkpoint are bookkeeping, not exchanges of interface data.
+    if (countAsExchange && header.type != protocol::MessageType::Finalize &&
+        header.type != protocol::MessageType::Checkpoint) {
       ++statistics_.exchanges;
       statistics_.bytes += frame.size();
     }
@@ -387,6 +389,17 @@ public:
                      "; both sides must use the same couplingScheme (the message order differs)",
                  waitingFor);
     }
+    if (hello.resumedFrom != config_.resumedFrom || hello.resumedWindow != config_.resumedWindow) {
+      auto start = [](const std::string& name, std::uint64_t window) {
+        return name.empty() ? std::string("a fresh start")
+                            : "restart checkpoint " + name + " (window " + std::to_string(window) + ")";
+      };
+      rejectPeer("participant '" + hello.participantName + "' resumed from " +
+                     start(hello.resumedFrom, hello.resumedWindow) + " but this side from " +
+                     start(config_.resumedFrom, config_.resumedWindow) +
+                     "; both sides must start from the same checkpoint (./railcosim run --resume gives it to both)",
+                 waitingFor);
+    }
     setPeerName(hello.participantName);
     peerScheme_ = hello.couplingScheme;
   }
@@ -417,6 +430,8 @@ public:
     hello.unitSystem = "SI";
     // Sent in its canonical spelling, so the peer compares names, not spellings.
     hello.couplingScheme = config_.couplingScheme.empty() ? "" : toString(parseCouplingScheme(config_.couplingScheme));
+    hello.resumedFrom = config_.resumedFrom;
+    hello.resumedWindow = config_.resumedWindow;
     return hello;
   }
 
@@ -455,6 +470,7 @@ std::string windowText(const char* what, std::uint64_t window) {
 struct FemParticipant::Impl {
   explicit Impl(ParticipantConfig config) : link(std::move(config), protocol::Role::Fem) {}
   Link link;
+  std::optional<CheckpointOrder> pendingCheckpoint; // ordered, its files not yet confirmed
   /// Windows with kinematics sent so far (the Finalize message's window).
   std::uint64_t kinematicsWindows() const { return link.orderIfAny() ? link.orderIfAny()->kinematicsWindows() : 0; }
 };
@@ -497,12 +513,31 @@ void FemParticipant::initialize(const InterfaceMesh& mesh, double femTimeStep, c
 }
 
 std::optional<ForceMessage> FemParticipant::receiveForces() {
+  FemIncoming incoming = receive();
+  if (incoming.kind == FemIncoming::Kind::Checkpoint) {
+    impl_->link.abortQuietly(impl_->link.self() + ": the DEM side ordered restart checkpoint " +
+                             incoming.checkpoint.name +
+                             ", which this FEM side cannot save (it reads with receiveForces())");
+    impl_->link.fail("receiveForces: the DEM side ordered restart checkpoint " + incoming.checkpoint.name +
+                     " (window " + std::to_string(incoming.checkpoint.window) +
+                     "); a FEM side that saves checkpoints reads with receive() or FemCouplingScheme::beginStep()");
+  }
+  if (incoming.kind == FemIncoming::Kind::Finalized) return std::nullopt;
+  return std::move(incoming.forces);
+}
+
+FemIncoming FemParticipant::receive() {
   Link& link = impl_->link;
-  if (link.peerFinalized()) return std::nullopt;
-  link.requireUsable("receiveForces()");
+  FemIncoming incoming;
+  if (link.peerFinalized()) return incoming;
+  link.requireUsable("receive()");
+  if (impl_->pendingCheckpoint) {
+    link.fail("receive: checkpoint " + impl_->pendingCheckpoint->name +
+              " was ordered and not confirmed; call confirmCheckpoint() once this side's files are written");
+  }
   cplscheme::MessageOrder& order = link.order();
   const std::string blocked = order.forcesBlockedBecause();
-  if (!blocked.empty()) link.fail("receiveForces: " + blocked);
+  if (!blocked.empty()) link.fail("receive: " + blocked);
   const std::string waitingFor = windowText("forces", order.forcesWindows());
   auto [frame, header] = link.receive(waitingFor, true);
   if (header.type == protocol::MessageType::Finalize) {
@@ -515,15 +550,48 @@ std::optional<ForceMessage> FemParticipant::receiveForces() {
     link.setPeerFinalized();
     log(LogLevel::Info, link.self() + ": " + link.peerLabel() + " finalized the run after " +
                             std::to_string(order.forcesWindows()) + " windows");
-    return std::nullopt;
+    return incoming;
+  }
+  if (header.type == protocol::MessageType::Checkpoint) {
+    if (!order.checkpointAllowed(header.window))
+      link.unexpected(header, "a Checkpoint for " + order.expectedCheckpoint());
+    incoming.kind = FemIncoming::Kind::Checkpoint;
+    incoming.checkpoint = link.decodeBody([&] { return protocol::decodeCheckpoint(header, frame.data()); }, waitingFor);
+    order.checkpointExchanged(header.window);
+    impl_->pendingCheckpoint = incoming.checkpoint;
+    log(LogLevel::Info,
+        link.self() + ": " + link.peerLabel() + " ordered restart checkpoint " + incoming.checkpoint.name);
+    return incoming;
   }
   if (header.type != protocol::MessageType::Forces || !order.forcesAllowed(header.window, header.iteration)) {
     link.unexpected(header, "Forces for " + order.expectedForces());
   }
-  ForceMessage message =
+  incoming.kind = FemIncoming::Kind::Forces;
+  incoming.forces =
       link.decodeBody([&] { return protocol::decodeForces(header, frame.data(), link.nodeCount()); }, waitingFor);
-  order.forcesExchanged(message.window, message.iteration);
-  return message;
+  order.forcesExchanged(incoming.forces.window, incoming.forces.iteration);
+  return incoming;
+}
+
+void FemParticipant::confirmCheckpoint(std::uint64_t window, const std::vector<CheckpointFile>& files) {
+  Link& link = impl_->link;
+  link.requireUsable("confirmCheckpoint()");
+  if (!impl_->pendingCheckpoint || impl_->pendingCheckpoint->window != window) {
+    link.fail("confirmCheckpoint(window " + std::to_string(window) + "): " +
+              (impl_->pendingCheckpoint
+                   ? "the checkpoint ordered is that of window " + std::to_string(impl_->pendingCheckpoint->window)
+                   : std::string("no checkpoint was ordered")));
+  }
+  std::string list;
+  try {
+    list = encodeCheckpointFiles(files);
+  } catch (const Error& error) {
+    link.fail(std::string("confirmCheckpoint: ") + error.what());
+  }
+  link.send(
+      link.encode([&](auto buffer) { return protocol::encodeCheckpointWritten(window, list, std::move(buffer)); }),
+      windowText("the files of the checkpoint", window), false);
+  impl_->pendingCheckpoint.reset();
 }
 
 void FemParticipant::sendKinematics(std::uint64_t window, const NodalKinematics& kinematics) {
@@ -533,6 +601,8 @@ void FemParticipant::sendKinematics(std::uint64_t window, const NodalKinematics&
                         std::to_string(window) + " have no receiver");
   }
   link.requireUsable("sendKinematics()");
+  if (impl_->pendingCheckpoint)
+    link.fail("sendKinematics: checkpoint " + impl_->pendingCheckpoint->name + " was ordered and not confirmed");
   cplscheme::MessageOrder& order = link.order();
   if (!order.kinematicsAllowed(window)) {
     link.fail("sendKinematics: window " + std::to_string(window) + " but the " + link.agreedSchemeLabel() +
@@ -670,6 +740,40 @@ NodalKinematics DemParticipant::receiveKinematics(std::uint64_t window) {
       link.decodeBody([&] { return protocol::decodeKinematics(header, frame.data(), link.nodeCount()); }, waitingFor);
   order.kinematicsExchanged(window);
   return kinematics;
+}
+
+std::vector<CheckpointFile> DemParticipant::orderCheckpoint(const CheckpointOrder& checkpoint) {
+  Link& link = impl_->link;
+  link.requireUsable("orderCheckpoint()");
+  if (link.peerFinalized()) {
+    throw PeerLostError(link.self() + ": " + link.peerLabel() + " finalized the run before checkpoint " +
+                        checkpoint.name + " could be taken");
+  }
+  cplscheme::MessageOrder& order = link.order();
+  if (!order.checkpointAllowed(checkpoint.window)) {
+    link.fail("orderCheckpoint: window " + std::to_string(checkpoint.window) + " but the " + link.agreedSchemeLabel() +
+              " scheme is at " + order.expectedCheckpoint());
+  }
+  if (!std::isfinite(checkpoint.time)) link.fail("orderCheckpoint: time is not finite");
+  link.send(link.encode([&](auto buffer) { return protocol::encodeCheckpoint(checkpoint, std::move(buffer)); }),
+            "checkpoint " + checkpoint.name, false);
+  order.checkpointExchanged(checkpoint.window);
+  const std::string waitingFor = "the FEM side's files of checkpoint " + checkpoint.name;
+  auto [frame, header] = link.receive(waitingFor, false);
+  if (header.type == protocol::MessageType::Finalize) {
+    link.setPeerFinalized();
+    throw PeerLostError(link.self() + ": " + link.peerLabel() + " finalized the run while this side was waiting for " +
+                        waitingFor + " - check its log");
+  }
+  if (header.type != protocol::MessageType::CheckpointWritten || header.window != checkpoint.window)
+    link.unexpected(header, "CheckpointWritten for window " + std::to_string(checkpoint.window));
+  const std::string list =
+      link.decodeBody([&] { return protocol::decodeCheckpointWritten(header, frame.data()); }, waitingFor);
+  try {
+    return decodeCheckpointFiles(list);
+  } catch (const Error& error) {
+    link.rejectPeer(error.what(), waitingFor);
+  }
 }
 
 void DemParticipant::finalize() { impl_->link.finalizeQuietly(impl_->forcesWindows()); }

@@ -43,8 +43,10 @@ class BeamUniformLoad(Case):
         return []
 
     def fem_arguments(self, p):
-        """A clamped-clamped beam (faces x = 0 and x = L), coupled on its top face, monitored on its axis at mid-span."""
-        return {"Lx": p["beam_length"], "Ly": p["beam_width"], "Lz": p["beam_height"], "nx": p["elements_x"],
+        """A clamped-clamped beam (faces x = 0 and x = L), coupled on its top face, monitored on its axis at mid-span.
+        Stones that settle before the coupled run (deposition_s) keep the FEM waiting for the handshake longer."""
+        waiting = {"timeout": 3600.0} if p["particle_shape"] != "sphere" and p["deposition_s"] > 0 else {}
+        return {**waiting, "Lx": p["beam_length"], "Ly": p["beam_width"], "Lz": p["beam_height"], "nx": p["elements_x"],
                 "ny": p["elements_y"], "nz": p["elements_z"], "order": p["element_order"], "E": p["beam_young"],
                 "nu": p["beam_poisson"], "rho": p["beam_density"], "rayleighMass": p["rayleigh_mass"],
                 "clamped": "2,4", "coupled": 6,

@@ -43,21 +43,27 @@ def lattice_line(length, shift, reach, spacing):
     return [first + k * spacing for k in range(n) if first + k * spacing <= length - reach]
 
 
-def lattice(count, reach):
-    """`count` jittered centres for particles within `reach` of their centre, layer by layer from the top face up."""
+def lattice(count, reach, box=None):
+    """`count` jittered centres, layer by layer from the top face up: for spheres within `reach` of their centre, in the
+    hollows of the layer below; for stones held in the axis-aligned half-extents `box`, on a shifted box lattice."""
     spacing = 2.0 * reach * 1.05
     layer_height = spacing * math.sqrt(0.5)  # centre rise of a sphere resting in a square hollow
+    steps = (spacing, spacing)
+    if box is not None:
+        steps = (2.0 * box[0] * 1.05, 2.0 * box[1] * 1.05)
+        layer_height = 2.0 * box[2] * 1.05
     jitter = 0.05 * reach
     centres, layer = [], 0
     while len(centres) < count:
-        shift = 0.5 * spacing * (layer % 2)
-        z = H + reach * 1.02 + layer * layer_height
-        for x in lattice_line(L, shift, reach, spacing):
-            for y in lattice_line(W, shift, reach, spacing):
+        shifts = (0.5 * steps[0] * (layer % 2), 0.5 * steps[1] * (layer % 2))
+        z = H + (reach if box is None else box[2]) * 1.02 + layer * layer_height
+        for x in lattice_line(L, shifts[0], reach if box is None else box[0], steps[0]):
+            for y in lattice_line(W, shifts[1], reach if box is None else box[1], steps[1]):
                 if len(centres) == count:
                     break
                 dx, dy = (rng.uniform(-jitter, jitter) for _ in range(2))
-                centres.append((min(max(x + dx, reach), L - reach), min(max(y + dy, reach), W - reach), z))
+                limit = (reach, reach) if box is None else box[:2]
+                centres.append((min(max(x + dx, limit[0]), L - limit[0]), min(max(y + dy, limit[1]), W - limit[1]), z))
         layer += 1
     return centres
 
@@ -100,12 +106,11 @@ else:
     import pack_ballast
 
     library = ballast_clusters.loadShapeLibrary()
-    numbers = np.random.default_rng(p["seed"])  # orientations
     if shape == "cluster":
         # Library clusters at unit sieve size, in their principal axes: (spheres, volume, inertia) per shape.
         templates = [(s["clusters"][p["cluster_level"]]["spheres"], s["clusters"][p["cluster_level"]]["volume"],
                       s["clusters"][p["cluster_level"]]["principalInertia"]) for s in library["shapes"]]
-        reach_of = [max(np.linalg.norm(t[0][:, :3], axis=1) + t[0][:, 3]) for t in templates]
+        extent_of = [np.max(np.abs(t[0][:, :3]) + t[0][:, 3:4], axis=0) for t in templates]
     else:
         # Convex cores at unit sieve size about their centroids: the library stones, or random crushed-rock hulls (a
         # fifth of them per seed, as many as the library has). The core is shrunk by 1 - 2 dilation_ratio so that with
@@ -121,6 +126,7 @@ else:
         # The dilated volume at unit size, from the engine's own Steiner formula; it scales with size^3.
         templates = [(core, PolyhedraGpuEngine.dilatedVolume([Vector3(*v) for v in core], ratio)) for core in cores]
         reach_of = [max(np.linalg.norm(t[0], axis=1)) + ratio for t in templates]
+        extent_of = [np.max(np.abs(t[0]), axis=0) + ratio for t in templates]
     kinds = []
 
     def stone_volume(size, k):
@@ -129,23 +135,31 @@ else:
 
     sizes, volume = particle_sizes(p["particle_size"], stone_volume)
     kinds = kinds[:len(sizes)]
-    centres = lattice(len(sizes), max(reach_of[k] * d for k, d in zip(kinds, sizes)))
+    # The stones lie with their principal axes along y, x, z (longest across the beam, so that the stones at the end
+    # walls reach as close to the beam's ends as they can), each turned by a random half turn about one axis, which
+    # keeps its box: a lattice of boxes packs them twice as densely as their enclosing spheres.
+    box = np.max([extent_of[k][[1, 0, 2]] * d for k, d in zip(kinds, sizes)], axis=0)
+    centres = lattice(len(sizes), 0.5 * min(sizes), box)
+    across = Quaternion((0, 0, 1), 0.5 * math.pi)
+    half_turns = [Quaternion.Identity, Quaternion((1, 0, 0), math.pi), Quaternion((0, 1, 0), math.pi),
+                  Quaternion((0, 0, 1), math.pi)]
+    turns = [across * half_turns[rng.randrange(4)] for _ in sizes]
     density = p["particle_mass_kg"] / volume
     O.materials[particle_mat].density = density
     smallest = 0.5 * min(sizes)
     if shape == "cluster":
-        for centre, kind, size in zip(centres, kinds, sizes):
+        for centre, kind, size, turn in zip(centres, kinds, sizes, turns):
             spheres, unit_volume, inertia = templates[kind]
-            stone = {"rotation": ballast_clusters.randomRotation(numbers), "spheres": spheres * size,
+            rotation = np.array([[turn.toRotationMatrix()[i, j] for j in range(3)] for i in range(3)])
+            stone = {"rotation": rotation, "spheres": spheres * size,
                      "mass": density * unit_volume * size ** 3, "principalInertia": density * inertia * size ** 5}
             particle_ids.append(pack_ballast.addClusterStone(stone, centre, O.materials[particle_mat]))
     else:
-        poly = PolyhedraGpuEngine(dilationRadius=p["dilation_ratio"] * p["particle_size"], restitution=p["restitution"],
-                                  gravity=(0, 0, -9.81), backend=p["polyhedra_backend"], label="polyhedra")
-        for centre, kind, size in zip(centres, kinds, sizes):
+        stone_cores = []  # (body, core vertices in the body frame, dilation radius) of each stone
+        for centre, kind, size, turn in zip(centres, kinds, sizes, turns):
             b = O.bodies.append(utils.sphere(centre, reach_of[kind] * size, material=particle_mat))
-            O.bodies[b].state.ori = Quaternion(Matrix3(*ballast_clusters.randomRotation(numbers).ravel()))
-            poly.addStone(b, [Vector3(*v) * size for v in templates[kind][0]], p["dilation_ratio"] * size)
+            O.bodies[b].state.ori = turn
+            stone_cores.append((b, [Vector3(*v) * size for v in templates[kind][0]], p["dilation_ratio"] * size))
             particle_ids.append(b)
         # Frictionless side walls of facets, counter-clockwise seen from inside, up to above the bed.
         top = max(c[2] for c in centres) + 2.0 * max(sizes)
@@ -155,6 +169,19 @@ else:
             lifted = [Vector3(c[0], c[1], top) for c in (a, b)]
             O.bodies.append(utils.facet((a, lifted[1], b), material=wall_mat))
             O.bodies.append(utils.facet((a, lifted[0], lifted[1]), material=wall_mat))
+
+        def polyhedra_engine():
+            """The stones' engine. Neighbour lists: stones land at up to 2.5 m/s; a skin of one dilation radius rebuilt
+            every 5 steps covers two stones closing on each other at that speed (2 x 2.5 m/s x 5 dt <= r_d / 2 for
+            dt <= r_d / 50 m/s; dt here is a fifth of that). A stone near a surface node has up to 8 triangles of the
+            beam's face and 2 of a wall within reach."""
+            mean_dilation = p["dilation_ratio"] * p["particle_size"]
+            engine = PolyhedraGpuEngine(dilationRadius=mean_dilation, restitution=p["restitution"], gravity=(0, 0, -9.81),
+                                        backend=p["polyhedra_backend"], rebuildInterval=5, neighbourSkin=mean_dilation,
+                                        maxNeighbours=32, maxWallNeighbours=16, label="polyhedra")
+            for body, core, dilation in stone_cores:
+                engine.addStone(body, core, dilation)
+            return engine
 count = len(particle_ids)
 
 # 4. Engines. Spheres and clusters: YADE's contact loop and integrator, the coupling engine between them; Hertz-Mindlin
@@ -162,29 +189,54 @@ count = len(particle_ids)
 #    dissipation in its contacts, not by numerical damping. Spheres touch the beam through facets, clusters through
 #    the mesh contacts (one contact per member and surface patch, the kernels' Hertz-Mindlin). Polyhedra: the
 #    coupling engine drives the polyhedra engine one window at a time, the beam's face one of its walls.
-model = p["contact_model"]
-if model == "auto":
-    model = {"sphere": "facets", "cluster": "meshContacts", "polyhedron": "polyhedra"}[shape]
-coupling = dem.coupling_engine(material=O.materials[beam_mat], restitution=p["restitution"], contactModel=model)
-if shape == "polyhedron":
-    O.engines = [coupling, poly]
-else:
-    O.engines = [
+def yade_engines(coupling):
+    return [
         ForceResetter(),
         InsertionSortCollider([Bo1_Sphere_Aabb(), Bo1_Facet_Aabb(), Bo1_Wall_Aabb()]),
         InteractionLoop([Ig2_Sphere_Sphere_ScGeom(), Ig2_Facet_Sphere_ScGeom(), Ig2_Wall_Sphere_ScGeom()],
                         [Ip2_FrictMat_FrictMat_MindlinPhys(en=MatchMaker(algo="val", val=p["restitution"]),
                                                            es=MatchMaker(algo="val", val=p["restitution"]))],
                         [Law2_ScGeom_MindlinPhys_Mindlin()]),
-        coupling,
+    ] + ([coupling] if coupling else []) + [
         (NewtonIntegrator if shape == "sphere" else QuaternionIntegrator)(damping=p["local_damping"], gravity=(0, 0, -9.81)),
     ]
+
+
 if shape == "sphere":
     O.dt = dem.time_step()
 else:
     # A contact on a cluster member or a dilated corner moves the whole stone: its P-wave step is that of the sphere of
     # the stone's size, not of its smallest member or of its dilation.
     O.dt = p["dem_dt"] if "dem_dt" in p else p["dem_dt_safety"] * smallest * math.sqrt(density / p["particle_young"])
+
+# 4b. Stones: a bed of angular stones starts about three times as tall as one of spheres (the boxes of the lattice hold
+#     40 % stone against 64 % for spheres) and would still be landing at the end of the coupled run. They first settle
+#     for deposition_s on a rigid floor in place of the beam's face, uncoupled (the FEM waits); the floor then gives
+#     way to the coupled beam.
+if shape != "sphere" and p["deposition_s"] > 0:
+    if shape == "cluster":
+        floor = [O.bodies.append(utils.wall(position=H, axis=2, sense=1, material=beam_mat))]
+        O.engines = yade_engines(None)
+    else:
+        floor = [O.bodies.append(utils.facet((corners[0], corners[1], corners[2]), material=beam_mat)),
+                 O.bodies.append(utils.facet((corners[0], corners[2], corners[3]), material=beam_mat))]
+        O.engines = [polyhedra_engine()]
+        O.engines[0].syncInterval = 50
+    O.run(50 * max(1, int(round(p["deposition_s"] / O.dt / 50))), True)
+    for b in floor:
+        O.bodies.erase(b)
+    settled = utils.kineticEnergy()
+    print(f"deposited for {O.time:.3f} s: kinetic energy {settled:.3e} J", flush=True)
+
+model = p["contact_model"]
+if model == "auto":
+    model = {"sphere": "facets", "cluster": "meshContacts", "polyhedron": "polyhedra"}[shape]
+coupling = dem.coupling_engine(material=O.materials[beam_mat], restitution=p["restitution"], contactModel=model)
+if shape == "polyhedron":
+    poly = polyhedra_engine()
+    O.engines = [coupling, poly]
+else:
+    O.engines = yade_engines(coupling)
 dem.connect()  # receives the beam's top surface, inserts its facets, sets O.dt = fem_dt / subcycles
 if shape == "polyhedron":
     poly.initialize()  # the stones' bodies get their dilated mass

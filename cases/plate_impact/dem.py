@@ -23,14 +23,14 @@ mass = O.bodies[sphere].state.mass
 initial_energy = 0.5 * mass * p["impact_velocity"] ** 2
 print(f"sphere {mass:.4f} kg at {p['impact_velocity']} m/s ({initial_energy:.4e} J)", flush=True)
 
-# 3. Run the windows, one record per window: sphere velocity and energy, contact force and contacts.
-contact_windows = 0
+# 3. Run the windows, one record per window: sphere velocity and energy, contact force and contacts. A count kept
+#    over the run lives in dem.state, which a restart checkpoint keeps.
+dem.state["contact_windows"] = 0
 
 
 def record():
-    global contact_windows
     s = O.bodies[sphere].state
-    contact_windows += coupling.surfaceContacts > 0
+    dem.state["contact_windows"] += int(coupling.surfaceContacts > 0)
     return dict(sphere_velocity_z=s.vel[2],
                 sphere_kinetic_energy=0.5 * mass * s.vel.squaredNorm() + 0.5 * s.inertia.dot(
                     Vector3(s.angVel[0] ** 2, s.angVel[1] ** 2, s.angVel[2] ** 2)),
@@ -40,6 +40,6 @@ def record():
 dem.run(record, progress=lambda last: f"sphere v_z {last['sphere_velocity_z']:.4f} m/s")
 # 4. What the post-processing reads (dem_info.json): the energy before and after the impact.
 dem.save(particles=1, initial_energy_j=initial_energy, final_sphere_energy_j=dem.last["sphere_kinetic_energy"],
-         contact_windows=int(contact_windows))
+         contact_windows=dem.state["contact_windows"])
 print(f"rebound {dem.last['sphere_velocity_z']:.4f} m/s, the sphere keeps "
       f"{dem.last['sphere_kinetic_energy'] / initial_energy:.2%} of its energy", flush=True)

@@ -15,7 +15,8 @@
 // The time loop, scheme-agnostic (the coupling scheme agreed at the handshake orders the messages):
 //   long railcosimBeginStep(real[int] forces)
 //       Waits, if the scheme orders it, for the nodal forces [N] that load the next step (3 per node,
-//       resized if needed). Returns 1, or 0 once the DEM side has ended the run.
+//       resized if needed). Returns 1, or 0 once the DEM side has ended the run, or 2 when the DEM side ordered a
+//       restart checkpoint: save the state with the calls below, then call railcosimBeginStep again.
 //   long railcosimWriteCheckpoint()  1: save the solver state (u, v, a, t) before solving this step.
 //   long railcosimReadCheckpoint()   1: restore the saved state before solving (the window is repeated).
 //   long railcosimEndStep(real time, real[int] positions, real[int] velocities, real[int] accelerations)
@@ -23,6 +24,17 @@
 //   long railcosimStepAccepted()     1 once per solved step that became final (record it then); ask after
 //                                    railcosimBeginStep and after railcosimEndStep.
 //   long railcosimStepWindow()       Window index of the step being solved.
+// Restart checkpoints (docs/protocol.md §12; folders from RAILCOSIM_CHECKPOINT_DIR and RAILCOSIM_RESUME):
+//   long railcosimSaveState(string name, real[int] values)   } after railcosimBeginStep returned 2: the solver's
+//   long railcosimSaveState(string name, real value)         } state, each under a name (u, v, a, time, step, ...)
+//   long railcosimSaveFile(string path)      an output file as it is now, put back there when the run resumes
+//   long railcosimSaveDone()                 writes fem_state.bin (the state above and the coupling scheme's, CRC-32
+//                                            in the manifest) and the files into the checkpoint, tells the DEM side
+//   long railcosimResumeLoad()               before railcosimConnect: 1 when RAILCOSIM_RESUME names a checkpoint,
+//                                            which is checked (manifest, sizes, CRC-32), its files put back and its
+//                                            state loaded (the handshake then announces it); 0 for a fresh run
+//   long railcosimLoadState(string name, real[int] values)   the saved array (resized)
+//   real railcosimLoadReal(string name)                       the saved value
 // Low-level calls (a script that orders the messages itself; not mixed with the calls above):
 //   long railcosimReceiveForces(real[int] forces)
 //       Waits for the next window's nodal forces [N] (3 per node, resized if needed). Returns 1, or 0
@@ -44,16 +56,24 @@
 // Every railcosim::Error becomes a FreeFEM execution error carrying the full message (FreeFem++ then
 // stops with a non-zero exit status); before that the peer is told why, so it does not hang.
 
+#include "railcosim/Checkpoint.hpp"
 #include "railcosim/CouplingScheme.hpp"
 #include "railcosim/Error.hpp"
 #include "railcosim/InterfaceMesh.hpp"
 #include "railcosim/Participant.hpp"
+#include "railcosim/StateStream.hpp"
+
+#include <unistd.h>
 
 #include <cstdint>
+#include <filesystem>
+#include <fstream>
+#include <map>
 #include <memory>
 #include <optional>
 #include <sstream>
 #include <string>
+#include <utility>
 #include <vector>
 
 // FreeFEM's headers come last: they define macros and pull names into the global namespace.
@@ -73,6 +93,14 @@ struct PluginState {
   double lastForceTime = 0.0;
   long lastForceWindow = -1;
   long lastForceIteration = 0;
+  // Restart checkpoints: what the script hands over while saving, and what a resumed run loaded.
+  std::vector<std::pair<std::string, std::vector<double>>> savedArrays;
+  std::vector<std::string> savedFiles;
+  bool saving = false;
+  std::optional<railcosim::CheckpointManifest> resumedFrom;
+  std::map<std::string, std::vector<double>> loadedArrays;
+  std::string loadedScheme; // the coupling scheme's state, read by the first railcosimBeginStep
+  long exchangesBefore = 0; // exchanges of the interrupted run up to the checkpoint (statistics go on from there)
 };
 
 PluginState& state() {
@@ -171,6 +199,10 @@ long connectWithScheme(string* const& endpoint, string* const& name, const doubl
     config.endpoint = *endpoint;
     config.timeoutSeconds = timeoutSeconds;
     config.couplingScheme = scheme;
+    if (s.resumedFrom) {
+      config.resumedFrom = s.resumedFrom->name;
+      config.resumedWindow = s.resumedFrom->window;
+    }
     s.name = config.name;
     s.participant = std::make_unique<railcosim::FemParticipant>(config);
     return 0L;
@@ -248,7 +280,14 @@ long railcosimSendKinematics(const long& window, const double& time, KN<double>*
 railcosim::FemCouplingScheme& requireScheme(const char* function) {
   PluginState& s = state();
   railcosim::FemParticipant& participant = requireParticipant(function, true);
-  if (!s.scheme) s.scheme = railcosim::FemCouplingScheme::create(participant, s.nodeCount);
+  if (!s.scheme) {
+    if (s.resumedFrom) {
+      std::istringstream saved(s.loadedScheme);
+      s.scheme = railcosim::FemCouplingScheme::resume(participant, s.nodeCount, saved);
+    } else {
+      s.scheme = railcosim::FemCouplingScheme::create(participant, s.nodeCount);
+    }
+  }
   return *s.scheme;
 }
 
@@ -256,8 +295,16 @@ long railcosimBeginStep(KN<double>* const& forces) {
   return guarded("railcosimBeginStep", [&]() -> long {
     PluginState& s = state();
     railcosim::FemCouplingScheme& scheme = requireScheme("railcosimBeginStep");
+    if (s.saving) fail("railcosimBeginStep", "a restart checkpoint is being saved: finish it with railcosimSaveDone()");
     std::vector<double> values;
-    if (!scheme.beginStep(values)) return 0L;
+    const railcosim::FemCouplingScheme::Action action = scheme.beginStep(values);
+    if (action == railcosim::FemCouplingScheme::Action::Stop) return 0L;
+    if (action == railcosim::FemCouplingScheme::Action::SaveRestart) {
+      s.saving = true;
+      s.savedArrays.clear();
+      s.savedFiles.clear();
+      return 2L;
+    }
     if (values.size() != 3 * s.nodeCount) {
       std::ostringstream text;
       text << "window " << scheme.window() << " carries " << values.size() << " force values, expected "
@@ -304,6 +351,158 @@ long railcosimStepWindow() {
   return s.scheme ? static_cast<long>(s.scheme->window()) : 0L;
 }
 
+// Where this process writes the checkpoint ordered now: the staging folder the DEM side prepared.
+std::string stagingFolderOf(const railcosim::CheckpointOrder& order) {
+  const std::string root = railcosim::CheckpointSettings::fromEnvironment().folder;
+  if (root.empty())
+    throw railcosim::Error(
+        "the DEM side ordered restart checkpoint " + order.name +
+        " but RAILCOSIM_CHECKPOINT_DIR is not set on the FEM side (./railcosim run sets it for both)");
+  const std::string staging = railcosim::stagingFolder(root, order.name);
+  if (!std::filesystem::is_directory(staging))
+    throw railcosim::Error(
+        "restart checkpoint " + order.name + ": the folder " + staging +
+        " the DEM side prepares does not exist (do both sides have the same RAILCOSIM_CHECKPOINT_DIR?)");
+  return staging;
+}
+
+void requireSaving(const char* function) {
+  if (!state().saving)
+    fail(function, "no restart checkpoint is being saved (railcosimBeginStep returns 2 when one is)");
+}
+
+long railcosimSaveArray(string* const& name, KN<double>* const& values) {
+  return guarded("railcosimSaveState", [&]() -> long {
+    requireSaving("railcosimSaveState");
+    state().savedArrays.emplace_back(*name, toVector(*values));
+    return 0L;
+  });
+}
+
+long railcosimSaveReal(string* const& name, const double& value) {
+  return guarded("railcosimSaveState", [&]() -> long {
+    requireSaving("railcosimSaveState");
+    state().savedArrays.emplace_back(*name, std::vector<double>{value});
+    return 0L;
+  });
+}
+
+long railcosimSaveFile(string* const& path) {
+  return guarded("railcosimSaveFile", [&]() -> long {
+    requireSaving("railcosimSaveFile");
+    state().savedFiles.push_back(*path);
+    return 0L;
+  });
+}
+
+// The path of an output file relative to this process's working folder (the run's results folder), so that it goes
+// back to the same place in a results folder that was renamed since.
+std::string relativeToWorkFolder(const std::string& path) {
+  const std::filesystem::path absolute = std::filesystem::absolute(path).lexically_normal();
+  const std::filesystem::path relative = absolute.lexically_relative(std::filesystem::current_path());
+  if (relative.empty() || *relative.begin() == "..")
+    throw railcosim::Error("file " + path + " lies outside the working folder " +
+                           std::filesystem::current_path().string() + "; only the run's own outputs can be saved");
+  return relative.string();
+}
+
+long railcosimSaveDone() {
+  return guarded("railcosimSaveDone", [&]() -> long {
+    PluginState& s = state();
+    requireSaving("railcosimSaveDone");
+    railcosim::FemCouplingScheme& scheme = requireScheme("railcosimSaveDone");
+    const railcosim::CheckpointOrder& order = scheme.restartOrder();
+    const std::string staging = stagingFolderOf(order);
+    {
+      std::ofstream out(staging + "/fem_state.bin", std::ios::binary | std::ios::trunc);
+      railcosim::StateWriter writer(out);
+      writer.section("fem solver");
+      writer.u64(s.savedArrays.size());
+      for (const auto& [name, values] : s.savedArrays) {
+        writer.text(name);
+        writer.reals(values);
+      }
+      writer.section("fem bridge");
+      writer.i64(static_cast<std::int64_t>(s.exchangesBefore + s.participant->statistics().exchanges));
+      writer.real(s.lastForceTime);
+      writer.i64(s.lastForceWindow);
+      writer.i64(s.lastForceIteration);
+      std::ostringstream schemeState;
+      scheme.writeState(schemeState);
+      writer.bytes(schemeState.str());
+      writer.section("end");
+      out.close();
+      if (!out) throw railcosim::Error("writing " + staging + "/fem_state.bin failed (disk full?)");
+    }
+    std::vector<railcosim::CheckpointFile> files{railcosim::describeCheckpointFile(staging, "fem_state.bin", "fem")};
+    for (const std::string& path : s.savedFiles) {
+      const std::string relative = relativeToWorkFolder(path);
+      files.push_back(railcosim::copyIntoCheckpoint(
+          staging, path, "fem_" + std::filesystem::path(path).filename().string(), "fem", relative));
+    }
+    scheme.confirmRestart(files);
+    s.saving = false;
+    return 0L;
+  });
+}
+
+long railcosimResumeLoad() {
+  return guarded("railcosimResumeLoad", [&]() -> long {
+    PluginState& s = state();
+    if (s.participant || s.finalized) fail("railcosimResumeLoad", "call it before railcosimConnect");
+    const std::string folder = railcosim::CheckpointSettings::fromEnvironment().resumeFrom;
+    if (folder.empty()) return 0L;
+    const railcosim::CheckpointManifest manifest = railcosim::verifyCheckpoint(folder);
+    railcosim::restoreCheckpointFiles(folder, manifest, "fem", std::filesystem::current_path().string());
+    std::ifstream in(folder + "/fem_state.bin", std::ios::binary);
+    if (!in)
+      throw railcosim::CheckpointError("checkpoint " + folder + " has no fem_state.bin (not listed for the fem side?)");
+    railcosim::StateReader reader(in, folder + "/fem_state.bin");
+    reader.section("fem solver");
+    const std::uint64_t count = reader.u64();
+    for (std::uint64_t k = 0; k < count; ++k) {
+      const std::string name = reader.text();
+      s.loadedArrays[name] = reader.reals();
+    }
+    reader.section("fem bridge");
+    s.exchangesBefore = static_cast<long>(reader.i64());
+    s.lastForceTime = reader.real();
+    s.lastForceWindow = static_cast<long>(reader.i64());
+    s.lastForceIteration = static_cast<long>(reader.i64());
+    s.loadedScheme = reader.bytes();
+    reader.section("end");
+    s.resumedFrom = manifest;
+    return 1L;
+  });
+}
+
+const std::vector<double>& loaded(const char* function, const std::string& name) {
+  PluginState& s = state();
+  if (!s.resumedFrom) fail(function, "this run did not resume from a checkpoint (railcosimResumeLoad returned 0)");
+  const auto found = s.loadedArrays.find(name);
+  if (found == s.loadedArrays.end())
+    fail(function, "checkpoint " + s.resumedFrom->name + " holds no state named '" + name + "'");
+  return found->second;
+}
+
+long railcosimLoadArray(string* const& name, KN<double>* const& values) {
+  return guarded("railcosimLoadState", [&]() -> long {
+    const std::vector<double>& saved = loaded("railcosimLoadState", *name);
+    if (static_cast<std::size_t>(values->N()) != saved.size()) values->resize(static_cast<long>(saved.size()));
+    for (std::size_t i = 0; i < saved.size(); ++i) (*values)[static_cast<long>(i)] = saved[i];
+    return 0L;
+  });
+}
+
+double railcosimLoadReal(string* const& name) {
+  return guarded("railcosimLoadReal", [&]() -> double {
+    const std::vector<double>& saved = loaded("railcosimLoadReal", *name);
+    if (saved.size() != 1)
+      fail("railcosimLoadReal", "state '" + *name + "' holds " + std::to_string(saved.size()) + " values, not one");
+    return saved[0];
+  });
+}
+
 long railcosimFinalize() {
   return guarded("railcosimFinalize", [&]() -> long {
     PluginState& s = state();
@@ -343,7 +542,7 @@ long railcosimForceWindow() { return state().lastForceWindow; }
 long railcosimForceIteration() { return state().lastForceIteration; }
 double railcosimBridgeSeconds() { return currentStatistics().bridgeSeconds(); }
 double railcosimWaitSeconds() { return currentStatistics().waitSeconds; }
-long railcosimExchanges() { return static_cast<long>(currentStatistics().exchanges); }
+long railcosimExchanges() { return state().exchangesBefore + static_cast<long>(currentStatistics().exchanges); }
 
 } // namespace
 
@@ -360,6 +559,13 @@ static void init() {
   Global.Add("railcosimReadCheckpoint", "(", new OneOperator0<long>(railcosimReadCheckpoint));
   Global.Add("railcosimStepAccepted", "(", new OneOperator0<long>(railcosimStepAccepted));
   Global.Add("railcosimStepWindow", "(", new OneOperator0<long>(railcosimStepWindow));
+  Global.Add("railcosimSaveState", "(", new OneOperator2_<long, string*, KN<double>*>(railcosimSaveArray));
+  Global.Add("railcosimSaveState", "(", new OneOperator2_<long, string*, double>(railcosimSaveReal));
+  Global.Add("railcosimSaveFile", "(", new OneOperator1_<long, string*>(railcosimSaveFile));
+  Global.Add("railcosimSaveDone", "(", new OneOperator0<long>(railcosimSaveDone));
+  Global.Add("railcosimResumeLoad", "(", new OneOperator0<long>(railcosimResumeLoad));
+  Global.Add("railcosimLoadState", "(", new OneOperator2_<long, string*, KN<double>*>(railcosimLoadArray));
+  Global.Add("railcosimLoadReal", "(", new OneOperator1_<double, string*>(railcosimLoadReal));
   Global.Add("railcosimReceiveForces", "(", new OneOperator1_<long, KN<double>*>(railcosimReceiveForces));
   Global.Add("railcosimSendKinematics", "(",
              new OneOperator5_<long, long, double, KN<double>*, KN<double>*, KN<double>*>(railcosimSendKinematics));

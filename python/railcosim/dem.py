@@ -13,19 +13,34 @@ runner) and reads as its numbered physics steps around these calls:
     dem.run(record)                                      # duration_s of windows, record() once per window
     dem.save(particles=...)                              # dem_timeseries.h5 and dem_info.json
 
+Restart checkpoints need nothing of the case: `railcosim run --checkpoint-every S` and `--resume DIR` set the
+environment (RESTART_ENVIRONMENT) that coupling_engine() hands to FemCouplingEngine; run() completes each checkpoint
+the engine orders (the scene, every engine's and material's attributes, engines' private state, this object's clock,
+the time series so far, `dem.state`) and, in a resumed run, puts all of it back before the first step. A case's dem.py must build the
+same scene again and keep whatever it accumulates during the run in the scene, its engines or `dem.state` (a dict of
+picklable values), not in Python variables that a resumed run would start afresh.
+
 Nothing here imports YADE at module level, so the runner side can read the engine options without it.
 """
 import json
+import os
+import pickle
 import sys
 import time
 
-from railcosim import results, solvers
+from railcosim import results, snapshots, solvers
 
 # Longest wait for any message of the FEM participant [s] (FemCouplingEngine.timeout): the FEM side's
 # factorisation of the largest case takes a few seconds, a lost peer is reported by the bridge sooner.
 COUPLING_TIMEOUT_S = 60.0
 # The name under which the per-window callback is reachable from a PyRunner command (run in YADE's __main__).
 WINDOW_CALLBACK = "railcosim_record_window"
+# Restart settings from `railcosim run` (the FEM side's plugin reads the same variables): FemCouplingEngine attribute
+# for each environment variable.
+RESTART_ENVIRONMENT = {"RAILCOSIM_CHECKPOINT_EVERY": "checkpointEvery", "RAILCOSIM_CHECKPOINT_DIR": "checkpointFolder",
+                       "RAILCOSIM_CHECKPOINT_RUN": "checkpointRun", "RAILCOSIM_RESUME": "resumeFrom"}
+# Engines whose whole state their own restart code restores (FemCouplingEngine: connect() and restoreCheckpoint()).
+SELF_RESTORING_ENGINES = ("FemCouplingEngine",)
 
 
 def coupling_options(p):
@@ -42,6 +57,104 @@ def coupling_options(p):
     return options
 
 
+def restart_options(environment=None):
+    """FemCouplingEngine's restart attributes from the environment `railcosim run` sets (RESTART_ENVIRONMENT)."""
+    environment = os.environ if environment is None else environment
+    options = {}
+    for variable, attribute in RESTART_ENVIRONMENT.items():
+        value = environment.get(variable, "")
+        if value:
+            options[attribute] = float(value) if attribute == "checkpointEvery" else value
+    return options
+
+
+def _plain(value):
+    """Whether an attribute value is data (numbers, text, vectors, lists of them), as opposed to a YADE object."""
+    from yade.wrapper import Serializable
+    if isinstance(value, Serializable):
+        return False
+    if isinstance(value, (list, tuple)):
+        return all(_plain(v) for v in value)
+    return True
+
+
+# Nesting followed into attributes that are YADE objects (engine > dispatcher > functor is 3): deep enough for every
+# engine, and a bound for an object that refers back to one that holds it.
+ATTRIBUTE_DEPTH = 6
+
+
+def _attributes(obj, depth=0):
+    """{name: value} of a YADE object's attributes, nested objects (functors, dispatchers) by value; values that do
+    not pickle (enumerations: settings, not state) are left out."""
+    from yade.wrapper import Serializable
+    state = {}
+    for name, value in obj.dict().items():
+        if isinstance(value, Serializable):
+            if depth < ATTRIBUTE_DEPTH:
+                state[name] = ("object", type(value).__name__, _attributes(value, depth + 1))
+        elif isinstance(value, (list, tuple)) and value and all(isinstance(v, Serializable) for v in value):
+            if depth < ATTRIBUTE_DEPTH:
+                state[name] = ("objects", [(type(v).__name__, _attributes(v, depth + 1)) for v in value])
+        elif _plain(value):
+            try:
+                pickle.dumps(value)
+            except Exception:
+                continue
+            state[name] = ("value", value)
+    return state
+
+
+def _restore_attributes(obj, state, where):
+    """Sets the attributes of a live YADE object that differ from `state` (_attributes of the saved one)."""
+    changed = {}
+    for name, (kind, *saved) in state.items():
+        if kind == "value":
+            if getattr(obj, name) != saved[0]:
+                changed[name] = saved[0]
+        elif kind == "object":
+            live = getattr(obj, name)
+            if live is not None and type(live).__name__ == saved[0]:
+                _restore_attributes(live, saved[1], f"{where}.{name}")
+        else:
+            live = getattr(obj, name)
+            if len(live) != len(saved[0]):
+                raise RuntimeError(f"restart: {where}.{name} has {len(live)} entries, the checkpoint {len(saved[0])}; "
+                                   "resume with the case and parameters of the interrupted run")
+            for k, (item, (class_name, attributes)) in enumerate(zip(live, saved[0])):
+                if type(item).__name__ == class_name:
+                    _restore_attributes(item, attributes, f"{where}.{name}[{k}]")
+    if changed:
+        obj.updateAttrs(changed)
+
+
+def engine_states(engines):
+    """What a restart checkpoint keeps of each engine: its class, its attributes (nested objects by value) and, for
+    an engine with private state (a method restartState()), that state."""
+    states = []
+    for engine in engines:
+        name = type(engine).__name__
+        if name in SELF_RESTORING_ENGINES:
+            states.append((name, None, None))
+            continue
+        private = engine.restartState() if hasattr(engine, "restartState") else None
+        states.append((name, _attributes(engine), private))
+    return states
+
+
+def restore_engine_states(engines, states):
+    """Puts engine_states() back into the engines of a rebuilt scene (the same engines, in the same order)."""
+    if [type(e).__name__ for e in engines] != [name for name, _, _ in states]:
+        raise RuntimeError("restart: the scene's engines are " + ", ".join(type(e).__name__ for e in engines) +
+                           "; the checkpoint's were " + ", ".join(name for name, _, _ in states) +
+                           "; resume with the case and parameters of the interrupted run")
+    for k, (engine, (name, attributes, private)) in enumerate(zip(engines, states)):
+        if attributes is None:
+            continue
+        _restore_attributes(engine, attributes, f"O.engines[{k}] ({name})")
+        if private is not None:
+            engine.restoreRestartState(private)
+
+
 class CoupledDem:
     """Set-up and tail of a case's YADE participant: parameters, coupling engine, time step, the window loop
     with its recorder, and the files the post-processing reads."""
@@ -55,9 +168,12 @@ class CoupledDem:
             self.parameters = json.load(f)
         self.coupling = None
         self.recorder = None
+        self.snapshots = None
         self.windows = None
         self.time_origin = 0.0
+        self.first_iter = 0
         self.wall_time_s = None
+        self.state = {}  # the case's own run state (counters, sums ...): restart checkpoints keep it
 
     def time_step(self):
         """The DEM step asked for: dem_dt, else dem_dt_safety times YADE's P-wave step of the bodies so far
@@ -73,8 +189,13 @@ class CoupledDem:
         is the surface's, `overrides` any further engine attributes (e.g. restitution)."""
         from yade.wrapper import FemCouplingEngine
         self.coupling = FemCouplingEngine(endpoint=self.endpoint, material=material,
-                                          **{**coupling_options(self.parameters), **overrides})
+                                          **{**coupling_options(self.parameters), **restart_options(), **overrides})
         return self.coupling
+
+    @property
+    def resuming(self):
+        """Whether this run resumes from a restart checkpoint (railcosim run --resume)."""
+        return bool(self.coupling and self.coupling.resumeFrom)
 
     def connect(self):
         """Handshake with the FEM participant: receives the surface (facets or mesh contacts), sets O.dt to
@@ -82,7 +203,7 @@ class CoupledDem:
         from yade import O
         self.coupling.connect()
         self.windows = int(round(self.parameters["duration_s"] / self.coupling.femDt))
-        self.time_origin = O.time
+        self.time_origin, self.first_iter = O.time, O.iter  # a resumed run takes them from its checkpoint in run()
         print(f"coupled: O.dt={O.dt:.3e} s, {self.coupling.subcycles} DEM steps per FEM step, {self.windows} windows "
               f"({self.coupling.scheme}, {len(self.coupling.triangles)} surface triangles, "
               f"{self.parameters['contact_model']} contacts)", flush=True)
@@ -106,24 +227,75 @@ class CoupledDem:
         from yade import O, wrapper
         coupling = self.coupling
         every = solvers.progress_period(self.parameters)
-        self.recorder = results.DemRecorder(self.out)  # dem_timeseries.h5, written as the run goes
+        snapshot_every = snapshots.snapshot_windows(self.parameters)
+        polyhedra = [e for e in O.engines if isinstance(e, getattr(wrapper, "PolyhedraGpuEngine", ()))]
+        self.snapshots = (snapshots.DemSnapshots(self.out, coupling, polyhedra[0] if polyhedra else None,
+                                                 append=self.resuming) if snapshot_every else None)
         wall_start = time.monotonic()
 
         def record_window():
             self.recorder.append(time=self.time, **record(), interface_work_dem=coupling.interfaceWorkDem,
                                  interface_work_fem=coupling.interfaceWorkFem)
+            if self.snapshots and coupling.window % snapshot_every == 0:
+                self.snapshots.write(coupling.window // snapshot_every, self.time)
             if len(self.recorder) % every == 0:
                 figures = f"  {progress(self.recorder.last)}" if progress else ""
                 print(f"t={self.time:.4f} s  window {coupling.window}/{self.windows}{figures}  "
                       f"{time.monotonic() - wall_start:.1f} s", flush=True)
+            if coupling.checkpointPending:
+                self._complete_checkpoint()
 
         import __main__
         setattr(__main__, WINDOW_CALLBACK, record_window)
+        # The recorder runs last in the step: it records the window and completes a checkpoint ordered at its exchange.
+        # Counted from now: a scene that ran before connecting (a deposition, say) would fire it at once otherwise.
         O.engines = O.engines + [wrapper.PyRunner(command=f"{WINDOW_CALLBACK}()", iterPeriod=coupling.subcycles,
-                                                  initRun=False)]
-        O.run(self.windows * coupling.subcycles + 1, True)
+                                                  initRun=False, iterLast=O.iter)]
+        if coupling.checkpointEvery > 0:
+            # An engine that cannot checkpoint its state says so now rather than at the first checkpoint.
+            for engine in O.engines:
+                if hasattr(engine, "restartState"):
+                    engine.restartState()
+        if self.resuming:
+            self._resume()
+        else:
+            self.recorder = results.DemRecorder(self.out)  # dem_timeseries.h5, written as the run goes
+        last_iter = self.first_iter + self.windows * coupling.subcycles + 1
+        if last_iter > O.iter:  # O.run(0) would run on without end; a run resumed at its last window has no step left
+            O.run(last_iter - O.iter, True)
         coupling.finalize()
+        if self.snapshots:
+            self.snapshots.close()
         self.wall_time_s = time.monotonic() - wall_start
+
+    def _complete_checkpoint(self):
+        """From the recorder, the last engine of the step: the rest of the restart checkpoint ordered at this step's
+        exchange (FemCouplingEngine.completeCheckpoint)."""
+        from yade import O
+        self.recorder.flush()
+        state = {"engines": engine_states(O.engines), "materials": [_attributes(m) for m in O.materials],
+                 "time_origin": self.time_origin, "first_iter": self.first_iter,
+                 "windows_recorded": len(self.recorder), "case": self.state}
+        folder = self.coupling.completeCheckpoint([self.recorder.path], pickle.dumps(state))
+        print(f"checkpoint {folder} at t={self.time:.4f} s, window {self.coupling.window}", flush=True)
+
+    def _resume(self):
+        """The scene, the engines, the clock and the time series as the checkpoint holds them; the next step is the
+        one after the step that wrote it."""
+        from yade import O
+        state = pickle.loads(self.coupling.restoreCheckpoint())
+        restore_engine_states(O.engines, state["engines"])
+        if len(O.materials) != len(state["materials"]):
+            raise RuntimeError(f"restart: the scene has {len(O.materials)} materials, the checkpoint "
+                               f"{len(state['materials'])}; resume with the case and parameters of the interrupted run")
+        for k, (material, attributes) in enumerate(zip(O.materials, state["materials"])):
+            _restore_attributes(material, attributes, f"O.materials[{k}]")  # a script may change them during a run
+        self.time_origin, self.first_iter = state["time_origin"], state["first_iter"]
+        self.state.clear()
+        self.state.update(state["case"])
+        self.recorder = results.DemRecorder(self.out, resume_windows=state["windows_recorded"])
+        print(f"resumed from {self.coupling.resumeFrom} at t={self.time:.4f} s, window {self.coupling.window}, "
+              f"step {O.iter}", flush=True)
 
     def save(self, arrays=None, **info):
         """Writes dem_timeseries.h5 (closed, with `arrays`: per-run data such as the surface triangles) and

@@ -27,6 +27,8 @@ SHARED_DEFAULTS = {
     },
     "output": {
         "progress_lines": 10,           # progress lines each solver prints over the run
+        "snapshot_every_s": -1.0,       # simulated s between ParaView snapshots (fields.xdmf); 0: none; negative:
+                                        # about 20 over a default run, none in a smoke run (railcosim/snapshots.py)
     },
 }
 # What a coupled case must state itself: there is no default a case could rely on.
@@ -57,6 +59,7 @@ SHARED_LIMITS = {
     "implicit_max_iterations": {"min": 1},
     "implicit_relaxation": {"min_exclusive": 0, "max": 1},
     "progress_lines": {"min": 1},
+    "snapshot_every_s": {"min": -1},
 }
 
 RULE_KEYS = ("min", "min_exclusive", "max", "max_exclusive", "choices", "divides", "force")

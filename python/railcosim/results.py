@@ -10,12 +10,13 @@ import numpy as np
 
 def coupling_info(coupling):
     """The coupling engine's figures every case writes to dem_info.json: exchanges, costs, scheme,
-    interface work and, for the implicit scheme, the passes over the windows."""
+    interface work, for the implicit scheme the passes over the windows, and the wall time of restart checkpoints."""
     return {"subcycles": coupling.subcycles, "exchanges": coupling.exchanges, "scheme": coupling.scheme,
             "bridge_time_s": coupling.bridgeTime, "mapping_time_s": coupling.mappingTime, "wait_time_s": coupling.waitTime,
             "interface_work_dem_j": coupling.interfaceWorkDem, "interface_work_fem_j": coupling.interfaceWorkFem,
             "implicit_passes": coupling.implicitPasses, "max_window_passes": coupling.maxWindowPasses,
-            "unconverged_windows": coupling.unconvergedWindows, "checkpoint_time_s": coupling.checkpointTime}
+            "unconverged_windows": coupling.unconvergedWindows, "checkpoint_time_s": coupling.checkpointTime,
+            "restart_checkpoint_time_s": coupling.checkpointWriteTime}
 
 
 def force_fluctuation(times, force, span, reference):
@@ -61,16 +62,28 @@ class DemRecorder:
     # 256 windows of 63 nodes x 3 float64 = 0.39 MB: one HDF5 chunk, inside h5py's 1 MB chunk cache per dataset.
     BLOCK_WINDOWS = 256
 
-    def __init__(self, out, block_windows=BLOCK_WINDOWS):
+    def __init__(self, out, block_windows=BLOCK_WINDOWS, resume_windows=None):
+        """`resume_windows`: a resumed run appends to the file a restart checkpoint put back, which holds that many
+        windows (anything after them, left by the interrupted run, is cut)."""
         import h5py
         self.path = os.path.join(out, DEM_SERIES_FILE)
-        self.file = h5py.File(self.path, "w")
+        self.file = h5py.File(self.path, "w" if resume_windows is None else "r+")
         self.file.attrs["units"] = "SI (m, s, N, J)"
         self.block_windows = block_windows
         self.blocks = {}    # name -> float64 array (block_windows, *shape), the windows not yet written
         self.pending = 0    # windows in self.blocks
         self.windows = 0    # windows appended in all
         self.last = {}      # name -> value of the latest window, for progress lines and final figures
+        if resume_windows is not None:
+            self.windows = resume_windows
+            for name, dataset in self.file.items():
+                if len(dataset) < resume_windows:
+                    raise ValueError(f"{self.path}: series {name} has {len(dataset)} windows, the checkpoint "
+                                     f"{resume_windows}")
+                dataset.resize(resume_windows, axis=0)
+                self.blocks[name] = np.empty((self.block_windows, *dataset.shape[1:]))
+                if resume_windows > 0:
+                    self.last[name] = dataset[resume_windows - 1]  # as recorded (arrays for vectors)
 
     def __len__(self):
         return self.windows

@@ -1,6 +1,8 @@
 """Solver commands of a case: FreeFEM runs (coupled participant, solver-only references) and the YADE participant."""
 import os
 
+from railcosim import snapshots
+
 FREEFEM = ["FreeFem++", "-nw", "-v", "0"]
 BOX_SOLVER = "box_elastodynamics.edp"
 
@@ -55,9 +57,11 @@ def progress_period(p):
 def coupled_fem_command(p, endpoint, out, script, structure):
     """The FEM participant of a coupled run: `script` in coupled mode on the run's endpoint, with the [coupling]
     scheme and window (fem_dt), the [output] averaging span and progress period, and the structure's options
-    (Case.fem_arguments); it writes to OUT/fem."""
+    (Case.fem_arguments), snapshots when the run takes them (railcosim/snapshots.py); it writes to OUT/fem."""
     options = {"endpoint": endpoint, "scheme": p["scheme"], "dt": p["fem_dt"], "averageSteps": average_steps(p),
                "progressEvery": progress_period(p), **structure}
+    if snapshots.snapshot_windows(p):
+        options["snapshotSteps"] = snapshots.snapshot_windows(p)  # one FEM step per window: the DEM's numbering
     return freefem_command(script, "coupled", os.path.join(out, "fem"), options)
 
 

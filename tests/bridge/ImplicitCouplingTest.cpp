@@ -4,9 +4,12 @@
 
 #include "railcosim/Error.hpp"
 #include "railcosim/ImplicitCoupling.hpp"
+#include "railcosim/StateStream.hpp"
 
 #include <cmath>
+#include <cstring>
 #include <functional>
+#include <sstream>
 
 using namespace railcosim;
 using Outcome = ImplicitWindowIteration::Outcome;
@@ -127,4 +130,60 @@ BOOST_AUTO_TEST_CASE(bad_settings_are_named) {
   rejects([](ImplicitSettings& s) { s.maxIterations = 0; }, "maxIterations");
   rejects([](ImplicitSettings& s) { s.relaxation = 1.5; }, "relaxation");
   rejects([](ImplicitSettings& s) { s.absoluteTolerance = -1.0; }, "absoluteTolerance");
+}
+
+BOOST_AUTO_TEST_CASE(saved_state_goes_on_bit_for_bit_with_aitkens_factor) {
+  // Two windows of a stiff linear interface (slope -5): the iteration is saved in the middle of the first window
+  // (after two passes, Aitken's factor already computed) and at the boundary between the windows (the factor carried
+  // over); a copy restored from either state must give every later pass bit for bit, whatever the original does.
+  ImplicitSettings settings;
+  settings.tolerance = 1e-12;
+  const LinearAnswer answer{-5.0, 1e-4};
+  auto bits = [](double v) {
+    std::uint64_t b;
+    std::memcpy(&b, &v, 8);
+    return b;
+  };
+  auto run = [&](ImplicitWindowIteration& window, int passes, std::vector<std::uint64_t>& trace) {
+    for (int pass = 0; pass < passes; ++pass) {
+      const NodalKinematics end = answer(window.assumedEnd());
+      const Outcome outcome = window.judge(end, true);
+      trace.insert(trace.end(), {bits(window.assumedEnd()[2]), bits(window.relaxation()), bits(window.residualNorm()),
+                                 static_cast<std::uint64_t>(outcome), window.iteration()});
+      if (outcome != Outcome::Repeat) {
+        NodalKinematics accepted = end;
+        accepted.velocities = {0.0, 0.0, 1e-3};
+        window.startWindow(accepted);
+      }
+    }
+  };
+  for (int savedAfter : {2, 6}) {
+    ImplicitWindowIteration original(settings, {0.0, 0.0, 0.0}, 1e-3);
+    NodalKinematics start;
+    start.positions = {0.0, 0.0, 0.0};
+    original.startWindow(start);
+    std::vector<std::uint64_t> before, expected, resumed;
+    run(original, savedAfter, before);
+    std::ostringstream saved;
+    StateWriter writer(saved);
+    original.writeState(writer);
+    run(original, 8, expected);
+
+    ImplicitWindowIteration restored(settings, {0.0, 0.0, 0.0}, 1e-3);
+    std::istringstream in(saved.str());
+    StateReader reader(in, "of the test");
+    restored.readState(reader);
+    run(restored, 8, resumed);
+    BOOST_TEST_CONTEXT("saved after " << savedAfter << " passes") { BOOST_TEST(resumed == expected); }
+  }
+  // A state of another interface is refused.
+  ImplicitWindowIteration original(settings, {0.0, 0.0, 0.0}, 1e-3);
+  original.startWindow(NodalKinematics{0.0, {0.0, 0.0, 0.0}, {}, {}});
+  std::ostringstream saved;
+  StateWriter writer(saved);
+  original.writeState(writer);
+  ImplicitWindowIteration other(settings, {0.0, 0.0, 1.0}, 1e-3);
+  std::istringstream in(saved.str());
+  StateReader reader(in, "of the test");
+  BOOST_CHECK_THROW(other.readState(reader), CheckpointError);
 }

@@ -61,6 +61,55 @@ BOOST_AUTO_TEST_CASE(implicit_repeats_a_window_or_opens_the_next) {
   BOOST_TEST(order->kinematicsAllowed(1));
 }
 
+BOOST_AUTO_TEST_CASE(checkpoints_are_taken_at_window_boundaries_only) {
+  // Just-in-time: after the kinematics of window w-1, before the forces of window w.
+  auto jit = makeMessageOrder(CouplingScheme::JustInTime);
+  BOOST_TEST(jit->checkpointAllowed(0));
+  jit->forcesExchanged(0, 0);
+  BOOST_TEST(!jit->checkpointAllowed(1)); // the forces of window 0 are not answered yet
+  jit->kinematicsExchanged(0);
+  BOOST_TEST(!jit->checkpointAllowed(0));
+  BOOST_TEST(jit->checkpointAllowed(1));
+  // Predictive: the FEM is one step ahead at every boundary.
+  auto predictive = makeMessageOrder(CouplingScheme::Predictive);
+  BOOST_TEST(!predictive->checkpointAllowed(0)); // the FEM's first step is not answered yet
+  predictive->kinematicsExchanged(0);
+  BOOST_TEST(predictive->checkpointAllowed(0));
+  predictive->forcesExchanged(0, 0);
+  BOOST_TEST(!predictive->checkpointAllowed(1));
+  predictive->kinematicsExchanged(1);
+  BOOST_TEST(predictive->checkpointAllowed(1));
+  // Implicit: a checkpoint accepts the last pass; the window is not repeated after it.
+  auto implicit = makeMessageOrder(CouplingScheme::Implicit);
+  implicit->forcesExchanged(0, 0);
+  BOOST_TEST(!implicit->checkpointAllowed(1));
+  implicit->kinematicsExchanged(0);
+  BOOST_TEST(implicit->forcesAllowed(0, 1));
+  BOOST_TEST(implicit->checkpointAllowed(1));
+  implicit->checkpointExchanged(1);
+  BOOST_TEST(!implicit->forcesAllowed(0, 1));
+  BOOST_TEST(implicit->forcesAllowed(1, 0));
+  BOOST_TEST(implicit->expectedForces() == "window 1");
+}
+
+BOOST_AUTO_TEST_CASE(a_resumed_order_continues_at_the_boundary) {
+  auto jit = makeMessageOrder(CouplingScheme::JustInTime);
+  jit->resumeAt(800);
+  BOOST_TEST(jit->forcesAllowed(800, 0));
+  BOOST_TEST(!jit->forcesAllowed(0, 0));
+  BOOST_TEST(!jit->kinematicsAllowed(799));
+  auto predictive = makeMessageOrder(CouplingScheme::Predictive);
+  predictive->resumeAt(800);
+  BOOST_TEST(predictive->forcesAllowed(800, 0)); // the FEM's state at t_801 is already known
+  BOOST_TEST(!predictive->kinematicsAllowed(800));
+  predictive->forcesExchanged(800, 0);
+  BOOST_TEST(predictive->kinematicsAllowed(801));
+  auto implicit = makeMessageOrder(CouplingScheme::Implicit);
+  implicit->resumeAt(800);
+  BOOST_TEST(implicit->forcesAllowed(800, 0));
+  BOOST_TEST(!implicit->forcesAllowed(799, 1)); // the last window before the checkpoint was accepted
+}
+
 BOOST_AUTO_TEST_CASE(scheme_names_are_one_table) {
   for (CouplingScheme scheme : {CouplingScheme::JustInTime, CouplingScheme::Predictive, CouplingScheme::Implicit}) {
     BOOST_TEST((parseCouplingScheme(toString(scheme)) == scheme));

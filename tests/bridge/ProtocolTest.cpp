@@ -129,6 +129,63 @@ BOOST_AUTO_TEST_CASE(forces_and_kinematics_round_trip_bit_exact) {
   BOOST_TEST(back.time == kinematics.time);
 }
 
+BOOST_AUTO_TEST_CASE(hello_announces_the_checkpoint_resumed_from) {
+  Hello hello;
+  hello.role = Role::Fem;
+  hello.participantName = "fem";
+  hello.resumedFrom = "window-00000800";
+  hello.resumedWindow = 800;
+  const auto bytes = encodeHello(hello);
+  const Header header = decode(bytes);
+  BOOST_TEST(header.window == 800u);
+  const Hello back = decodeHello(header, bytes.data());
+  BOOST_TEST(back.resumedFrom == "window-00000800");
+  BOOST_TEST(back.resumedWindow == 800u);
+  // A window without the checkpoint it comes from, or a name that is no folder name, is refused.
+  hello.resumedFrom.clear();
+  BOOST_CHECK_THROW(encodeHello(hello), ProtocolError);
+  auto fresh = encodeHello(Hello{Role::Fem, "fem", "SI", "", "", 0});
+  patch<std::uint64_t>(fresh, 8, 800);
+  expectRejected([&] { decodeHello(decode(fresh), fresh.data()); },
+                 {"field 'window' is 800", "'resumedFrom' is empty"});
+  hello.resumedFrom = "../elsewhere";
+  BOOST_CHECK_THROW(encodeHello(hello), ProtocolError);
+}
+
+BOOST_AUTO_TEST_CASE(checkpoint_messages_round_trip_and_refusals) {
+  CheckpointOrder order;
+  order.window = 800;
+  order.time = 0.4;
+  order.name = "window-00000800";
+  const auto bytes = encodeCheckpoint(order);
+  const Header header = decode(bytes);
+  BOOST_TEST((header.type == MessageType::Checkpoint));
+  BOOST_TEST(describe(header) == "Checkpoint for window 800");
+  const CheckpointOrder back = decodeCheckpoint(header, bytes.data());
+  BOOST_TEST(back.window == 800u);
+  BOOST_TEST(back.time == 0.4);
+  BOOST_TEST(back.name == "window-00000800");
+  for (const char* bad : {"", ".hidden", "a/b", "tab\there"}) {
+    order.name = bad;
+    BOOST_CHECK_THROW(encodeCheckpoint(order), ProtocolError);
+  }
+  auto slash = bytes;
+  slash[headerBytes + 6] = '/';
+  expectRejected([&] { decodeCheckpoint(decode(slash), slash.data()); }, {"Checkpoint for window 800", "field 'name'"});
+
+  const std::string files = "fem\tfem_state.bin\t\t9843\tec18bd81\n";
+  const auto written = encodeCheckpointWritten(800, files);
+  BOOST_TEST(decodeCheckpointWritten(decode(written), written.data()) == files);
+  BOOST_CHECK_THROW(encodeCheckpointWritten(800, std::string("bell\a")), ProtocolError);
+  auto control = written;
+  control[headerBytes] = 0x07;
+  expectRejected([&] { decodeCheckpointWritten(decode(control), control.data()); },
+                 {"CheckpointWritten for window 800", "control character"});
+  auto withNodes = written;
+  patch<std::uint64_t>(withNodes, offsetNodes, 1);
+  expectRejected([&] { decodeCheckpointWritten(decode(withNodes), withNodes.data()); }, {"nodeCount"});
+}
+
 BOOST_AUTO_TEST_CASE(abort_round_trip) {
   const auto bytes = encodeAbort(3, "fem: matrix factorisation failed");
   BOOST_TEST(decodeAbort(decode(bytes), bytes.data()) == "fem: matrix factorisation failed");

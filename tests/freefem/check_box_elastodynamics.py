@@ -49,15 +49,24 @@ def expect(condition, message):
         failures.append(message)
 
 
-def run_solver(args, name, parameters, expect_success=True, background=None):
-    """Runs FreeFem++ on the solver with `parameters`; returns (summary dict or None, output text)."""
+def run_solver(args, name, parameters, expect_success=True, background=None, start_background=None):
+    """Runs FreeFem++ on the solver with `parameters`; returns (summary dict or None, output text).
+    `background`: a process already started (the stand-in DEM) whose exit is awaited after FreeFem++'s;
+    `start_background`: a function starting it once FreeFem++ runs (returns the process), for a solver whose
+    set-up outlasts the peer's patience before the FEM side binds."""
     out = os.path.join(args.work, name)
     env = dict(os.environ)
     env["FF_LOADPATH"] = "/usr/lib/freefem++;" + args.plugin_dir
     env["FF_INCLUDEPATH"] = "/usr/include/freefem++/idp;" + args.lib_dir
     command = [args.freefem, "-nw", "-v", "0", args.solver] + [str(p) for p in parameters] + ["-out", out]
     start = time.time()
-    result = subprocess.run(command, env=env, capture_output=True, text=True, timeout=90)
+    if start_background is None:
+        result = subprocess.run(command, env=env, capture_output=True, text=True, timeout=90)
+    else:
+        solver = subprocess.Popen(command, env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+        background = start_background()
+        stdout, stderr = solver.communicate(timeout=90)
+        result = subprocess.CompletedProcess(command, solver.returncode, stdout, stderr)
     output = result.stdout + result.stderr
     if background is not None:
         dem_output, _ = background.communicate(timeout=30)
@@ -485,10 +494,11 @@ def sleeper_load_pattern(args):
            and direct["time"][-1] > 22.6e-3, "the short run passes the peak, the cycles (low %.0f N) and ramp 2" % low)
 
 
-def main():
-    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    parser.add_argument("check", choices=["cantilever_static", "cantilever_vibration", "coupled_round_trip",
-                                          "sleeper_winkler", "sleeper_load_pattern"])
+def run_checks(description, checks, namespace, name):
+    """Command line of a checker (also tests/freefem/check_thin_sheet.py): runs the subcommand `check` (a function
+    of `namespace`) and returns the exit status from the failures `expect` collected."""
+    parser = argparse.ArgumentParser(description=description, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("check", choices=checks)
     parser.add_argument("--freefem", default="FreeFem++")
     parser.add_argument("--solver", required=True)
     parser.add_argument("--plugin-dir", required=True)
@@ -497,13 +507,18 @@ def main():
     parser.add_argument("--dem", default="")
     args = parser.parse_args()
     os.makedirs(args.work, exist_ok=True)
-    print("check_box_elastodynamics: " + args.check)
-    globals()[args.check](args)
+    print("%s: %s" % (name, args.check))
+    namespace[args.check](args)
     if failures:
         print("FAILED: %d check(s)" % len(failures))
         return 1
     print("PASSED")
     return 0
+
+
+def main():
+    return run_checks(__doc__, ["cantilever_static", "cantilever_vibration", "coupled_round_trip", "sleeper_winkler",
+                                "sleeper_load_pattern"], globals(), "check_box_elastodynamics")
 
 
 if __name__ == "__main__":

@@ -54,6 +54,17 @@ void requireCanonical(const Header& header, const std::uint8_t* data, std::vecto
   }
 }
 
+/// The encoding of what a decoder accepted: an encoder refusing it (ProtocolError) means the decoder let through a
+/// value no sender can write, which is a finding, not the expected refusal of a bad frame.
+template <class Encode>
+std::vector<std::uint8_t> reencoded(const Header& header, Encode encode) {
+  try {
+    return encode();
+  } catch (const ProtocolError& error) {
+    finding(header, std::string("the encoder refuses what the decoder accepted: ") + error.what());
+  }
+}
+
 /// The frame copied to an odd address inside `storage`: the array decoders take a fast path for 8-byte aligned
 /// payloads and a copying one otherwise, and both must give the same values.
 const std::uint8_t* misalignedCopy(const std::uint8_t* data, std::size_t size, std::vector<std::uint8_t>& storage) {
@@ -82,8 +93,23 @@ void fuzzHello(const Header& header, const std::uint8_t* data) {
     }
   }
   if (hello.participantName.empty()) finding(header, "Hello with an empty participantName accepted");
+  if (hello.resumedWindow != header.window) finding(header, "Hello's resumed window is not its header's window");
+  if (hello.resumedFrom.empty() && hello.resumedWindow != 0) finding(header, "a resumed window without its checkpoint");
   (void)toString(hello.role);
-  requireCanonical(header, data, encodeHello(hello), {windowField, timeField});
+  requireCanonical(header, data, reencoded(header, [&] { return encodeHello(hello); }), {timeField});
+}
+
+void fuzzCheckpoint(const Header& header, const std::uint8_t* data) {
+  const CheckpointOrder order = decodeCheckpoint(header, data);
+  if (order.name.empty() || order.name.find('/') != std::string::npos)
+    finding(header, "Checkpoint accepted a name that is no folder name: '" + order.name + "'");
+  requireCanonical(header, data, reencoded(header, [&] { return encodeCheckpoint(order); }), {});
+}
+
+void fuzzCheckpointWritten(const Header& header, const std::uint8_t* data) {
+  const std::string files = decodeCheckpointWritten(header, data);
+  requireCanonical(header, data, reencoded(header, [&] { return encodeCheckpointWritten(header.window, files); }),
+                   {timeField});
 }
 
 void fuzzMesh(const Header& header, const std::uint8_t* data) {
@@ -177,6 +203,12 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
         requireCanonical(header, data, encodeAbort(header.window, reason), {timeField});
         break;
       }
+      case MessageType::Checkpoint:
+        fuzzCheckpoint(header, data);
+        break;
+      case MessageType::CheckpointWritten:
+        fuzzCheckpointWritten(header, data);
+        break;
       default:
         finding(header, "decodeHeader accepted an unknown message type");
     }

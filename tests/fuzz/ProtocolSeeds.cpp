@@ -76,6 +76,26 @@ std::vector<std::uint8_t> abortOverLimit() {
   return bytes;
 }
 
+/// A Hello of a participant resumed from the checkpoint after 800 windows (name as railcosim::checkpointName gives it).
+Hello resumedAt800(Hello message) {
+  message.resumedFrom = "window-00000800";
+  message.resumedWindow = 800;
+  return message;
+}
+
+/// The FEM side's file list of a beam checkpoint, as encodeCheckpointFiles writes it in answer to a Checkpoint.
+std::string femFiles() {
+  return "fem\tfem_state.bin\t\t61937\t89abcdef\n"
+         "fem\tfem_fem_monitor.csv\tfem/fem_monitor.csv\t40213\t01234567\n";
+}
+
+/// A Checkpoint whose name has `c` in it (the encoder refuses it, so the byte is patched): a refusal seed.
+std::vector<std::uint8_t> checkpointNamePatched(char c) {
+  std::vector<std::uint8_t> bytes = encodeCheckpoint(CheckpointOrder{3, 1.5e-3, "window-00000003"});
+  bytes[headerBytes + 6] = static_cast<std::uint8_t>(c);
+  return bytes;
+}
+
 Hello hello(Role role, const std::string& name, const std::string& scheme) {
   Hello message;
   message.role = role;
@@ -103,6 +123,7 @@ int main(int argc, char** argv) {
         {"hello-dem-predictive", encodeHello(hello(Role::Dem, "ballast-dem", "predictive"))},
         {"hello-dem-implicit", encodeHello(hello(Role::Dem, "dem", "implicit"))},
         {"hello-dem-unstated", encodeHello(hello(Role::Dem, "dem", ""))},
+        {"hello-fem-resumed-window800", encodeHello(resumedAt800(hello(Role::Fem, "fem", "predictive")))},
         {"mesh-8x8-positions", encodeMesh(grid8, dt, sagging(grid8, 0.0, false, false))},
         {"mesh-8x8-all", encodeMesh(grid8, dt, sagging(grid8, 0.0, true, true))},
         {"mesh-3x3-velocities", encodeMesh(grid3, dt, sagging(grid3, 0.0, true, false))},
@@ -115,6 +136,8 @@ int main(int argc, char** argv) {
         {"kinematics-64-all-window0", encodeKinematics(0, sagging(grid8, dt, true, true))},
         {"kinematics-9-velocities-window3-iteration2", encodeKinematics(3, sagging(grid3, 4 * dt, true, false), {}, 2)},
         {"finalize-window1000", encodeFinalize(1000)},
+        {"checkpoint-window800", encodeCheckpoint(CheckpointOrder{800, 800 * dt, "window-00000800"})},
+        {"checkpoint-written-window800", encodeCheckpointWritten(800, femFiles())},
         {"abort-protocol-error",
          encodeAbort(42,
                      "dem: rejected a message from peer 'fem' while waiting for kinematics of window 42: "
@@ -125,6 +148,7 @@ int main(int argc, char** argv) {
         {"hello-empty-name", encodeHello(hello(Role::Dem, "", ""))},
         {"mesh-3x3-infinite-step",
          encodeMesh(grid3, std::numeric_limits<double>::infinity(), sagging(grid3, 0.0, false, false))},
+        {"checkpoint-name-with-slash", checkpointNamePatched('/')},
     };
     for (const auto& [name, bytes] : seeds) {
       const std::string path = folder + "/" + name;

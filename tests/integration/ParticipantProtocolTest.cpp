@@ -7,6 +7,8 @@
 #include "railcosim/Error.hpp"
 #include "railcosim/Participant.hpp"
 
+#include "InterfaceFixtures.hpp"
+
 #include <sys/socket.h>
 #include <sys/un.h>
 #include <unistd.h>
@@ -22,26 +24,9 @@ using namespace railcosim;
 
 namespace {
 
-std::string uniqueEndpoint() {
-  static std::atomic<int> counter{0};
-  return "ipc:///tmp/railcosim-test-" + std::to_string(getpid()) + "-" + std::to_string(counter++) + ".sock";
-}
-
-InterfaceMesh square() {
-  InterfaceMesh mesh;
-  mesh.coordinates = {0, 0, 0, 1, 0, 0, 1, 1, 0, 0, 1, 0};
-  mesh.triangles = {0, 1, 2, 0, 2, 3};
-  return mesh;
-}
-
-NodalKinematics restingAt(const InterfaceMesh& mesh, double time) {
-  NodalKinematics kinematics;
-  kinematics.time = time;
-  kinematics.positions = mesh.coordinates;
-  kinematics.velocities.assign(mesh.coordinates.size(), 0.0);
-  kinematics.accelerations.assign(mesh.coordinates.size(), 0.0);
-  return kinematics;
-}
+using test::restingAt;
+using test::square;
+using test::uniqueEndpoint;
 
 /// A scripted participant speaking raw protocol bytes, to send what a correct participant never would.
 struct FakePeer {
@@ -329,6 +314,23 @@ BOOST_AUTO_TEST_CASE(silent_peer_times_out_with_advice) {
   // The deadline is kept to within one poll slice (0.1 s) plus scheduling; 2 s is a generous bound.
   BOOST_TEST(waited >= 0.5);
   BOOST_TEST(waited < 2.0);
+}
+
+BOOST_AUTO_TEST_CASE(a_peer_that_binds_late_is_not_taken_for_a_frozen_one) {
+  // The connecting side waits before the binding side exists (a FEM solver still assembling): silence counts
+  // from the connection's handshake, not from the start of the wait, so a peer that binds after more than
+  // three keepalive intervals and then speaks at once is heard.
+  const std::string endpoint = uniqueEndpoint();
+  com::Channel waiting(com::ChannelOptions{endpoint, com::Side::Connect, 0.2, 1000, 0.05});
+  auto received = std::async(std::launch::async, [&] {
+    com::Frame frame;
+    com::Timing timing;
+    return waiting.receive(frame, 5.0, timing);
+  });
+  std::this_thread::sleep_for(std::chrono::milliseconds(1000)); // 5 keepalive intervals of silence
+  FakePeer late(endpoint, com::Side::Bind);
+  late.sendHello(protocol::Role::Fem, "late-fem");
+  BOOST_TEST(static_cast<int>(received.get()) == static_cast<int>(com::Status::Ok));
 }
 
 BOOST_AUTO_TEST_CASE(non_finite_values_are_refused_before_sending) {

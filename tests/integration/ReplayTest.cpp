@@ -76,6 +76,56 @@ BOOST_AUTO_TEST_CASE(just_in_time_replays_both_sides) { recordAndReplay("justInT
 BOOST_AUTO_TEST_CASE(predictive_replays_both_sides) { recordAndReplay("predictive"); }
 BOOST_AUTO_TEST_CASE(implicit_replays_both_sides) { recordAndReplay("implicit"); }
 
+BOOST_AUTO_TEST_CASE(restart_checkpoints_are_replayed_on_both_sides) {
+  // A predictive run with a checkpoint every 10 windows, recorded; each side played back into a fresh stand-in of the
+  // other: the orders, the forces and kinematics, and the FEM side's files (names, sizes, CRC-32) come back equal.
+  const std::string folder = "/tmp/" + uniqueName() + "-checkpoints";
+  setenv("RAILCOSIM_CHECKPOINT_DIR", folder.c_str(), 1);
+  const std::string recording = "/tmp/" + uniqueName() + ".rec";
+  std::vector<std::string> dem = demArguments("", "predictive", "-1000");
+  dem.insert(dem.end(), {"--checkpoint-every", "1e-3"});
+  auto withEndpoint = [](std::vector<std::string> arguments, const std::string& endpoint) {
+    arguments[1] = endpoint;
+    return arguments;
+  };
+  const std::vector<std::string> fem{"--timeout", "20", "--scheme", "predictive", "--nodes", "16"};
+  auto femAt = [&](const std::string& endpoint) {
+    std::vector<std::string> arguments{"--endpoint", endpoint};
+    arguments.insert(arguments.end(), fem.begin(), fem.end());
+    return arguments;
+  };
+  {
+    const std::string endpoint = "ipc:///tmp/" + uniqueName() + ".sock";
+    setenv("RAILCOSIM_BRIDGE_RECORD", recording.c_str(), 1);
+    Process femProcess(RAILCOSIM_DUMMY_FEM, femAt(endpoint));
+    unsetenv("RAILCOSIM_BRIDGE_RECORD");
+    Process demProcess(RAILCOSIM_DUMMY_DEM, withEndpoint(dem, endpoint));
+    BOOST_TEST(demProcess.wait(30) == 0, demProcess.errors());
+    BOOST_TEST(femProcess.wait(10) == 0, femProcess.errors());
+  }
+  {
+    const std::string endpoint = "ipc:///tmp/" + uniqueName() + ".sock";
+    Process replay(RAILCOSIM_REPLAY,
+                   {"--recording", recording, "--play", "fem", "--endpoint", endpoint, "--timeout", "20"});
+    Process demProcess(RAILCOSIM_DUMMY_DEM, withEndpoint(dem, endpoint));
+    BOOST_TEST(demProcess.wait(30) == 0, demProcess.errors());
+    BOOST_TEST(replay.wait(10) == 0, replay.output() << replay.errors());
+    BOOST_TEST(contains(replay.output(), "largest relative difference 0.000e+00"), replay.output());
+  }
+  {
+    const std::string endpoint = "ipc:///tmp/" + uniqueName() + ".sock";
+    Process femProcess(RAILCOSIM_DUMMY_FEM, femAt(endpoint));
+    Process replay(RAILCOSIM_REPLAY,
+                   {"--recording", recording, "--play", "dem", "--endpoint", endpoint, "--timeout", "20"});
+    BOOST_TEST(replay.wait(30) == 0, replay.output() << replay.errors());
+    BOOST_TEST(femProcess.wait(10) == 0, femProcess.errors());
+    BOOST_TEST(contains(replay.output(), "largest relative difference 0.000e+00"), replay.output());
+  }
+  unsetenv("RAILCOSIM_CHECKPOINT_DIR");
+  std::remove(recording.c_str());
+  std::system(("rm -rf '" + folder + "'").c_str());
+}
+
 BOOST_AUTO_TEST_CASE(a_file_that_is_not_a_recording_is_refused_in_one_line) {
   const std::string path = "/tmp/" + uniqueName() + ".rec";
   {

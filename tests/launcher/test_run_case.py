@@ -417,8 +417,9 @@ class CaseContractTest(unittest.TestCase):
 
     def test_contact_model_names(self):
         from railcosim import dem
-        # Passed to FemCouplingEngine as written: it knows "meshContacts" and its former name "hierarchy".
-        for name, engine in (("facets", "facets"), ("meshContacts", "meshContacts"), ("hierarchy", "hierarchy")):
+        # Passed to FemCouplingEngine as written: it knows "meshContacts", its former name "hierarchy" and "polyhedra".
+        for name, engine in (("facets", "facets"), ("meshContacts", "meshContacts"), ("hierarchy", "hierarchy"),
+                             ("polyhedra", "polyhedra")):
             with self.subTest(contact_model=name):
                 params = case_parameters.resolve_parameters(self.config(), False, [f"contact_model={name}"])
                 self.assertEqual(case_parameters.check_parameters(params, self.config()), [])

@@ -10,18 +10,6 @@
 
 namespace railcosim::testing {
 
-inline polyhedra::Material polyhedraMaterial(const kernels::ContactMaterial& m) {
-  polyhedra::Material material;
-  material.youngModulus = m.youngModulus;
-  material.poissonRatio = m.poissonRatio;
-  material.restitution = m.restitution;
-  material.friction = m.frictionCoefficient;
-  material.roughnessRms = m.roughnessRms;
-  material.fractalDimension = m.fractalDimension;
-  material.plasticUnloading = m.plasticUnloading;
-  return material;
-}
-
 // A point core dilated by R is a sphere of radius R: against a flat wall the polyhedra law sees R* = R, and its mass
 // is that of the sphere (Steiner's formula reduces to (4/3)πR³).
 inline polyhedra::ShapeTemplate scenarioSphere(double density) {
@@ -43,7 +31,7 @@ inline polyhedra::Parameters scenarioParameters(const kernels::ContactMaterial& 
   polyhedra::Parameters p;
   p.timeStep = timeStep;
   p.gravity = {0.0, 0.0, 0.0};
-  p.stone = polyhedraMaterial(material);
+  p.stone = polyhedra::materialOf(material);
   p.wall = p.stone;
   p.backend = backend;
   return p;

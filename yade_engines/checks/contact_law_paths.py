@@ -1,13 +1,16 @@
-# YADE check: the one contact law on its two YADE paths gives the closed forms of the two path scenarios.
-# Paths: the pair law (Law2_ScGeom_BallastPhys_Ballast, a sphere on a BallastMat wall) and the sphere-FE-surface
+# YADE check: the one contact law on its three YADE paths gives the closed forms of the two path scenarios.
+# Paths: the pair law (Law2_ScGeom_BallastPhys_Ballast, a sphere on a BallastMat wall), the sphere-FE-surface
 # contacts (FemCouplingEngine, contactModel='meshContacts', a flat surface served by the stand-in FEM participant,
-# made rigid: springs of 1e16 N/m per node under 1e10 kg). Scenarios and tolerances are those of
-# tests/kernels/ContactLawScenarios.hpp (the kernel and the polyhedra paths run them in C++):
+# made rigid: springs of 1e16 N/m per node under 1e10 kg) and a BallastMat stone of PolyhedraGpuEngine on the same
+# coupled surface (contactModel='polyhedra'; a point-like core dilated by R is the sphere). Scenarios and tolerances
+# are those of tests/kernels/ContactLawScenarios.hpp (the kernel and the polyhedra library run them in C++):
 #  1. a granite sphere (Tolomeo & McDowell 2022 Table 1: E = 60 GPa, nu = 0.25, D_f = 2.13, h = 26.1 um, R = 4.72 mm)
 #     on a flat of the same granite, elasto-plastic Pohrt-Popov, approached at 1e-8 m per step until F >= 500 N and
 #     withdrawn at the same rate: peak force on the virgin curve, force vanishing at the closed-form plastic overlap
 #     delta_p = delta_max - (3 F_max / (4 E* sqrt(R*)))^(2/3), Hertzian unloading about delta_p;
 #  2. the smooth granite sphere dropped on the flat at 0.5 m/s with restitution 0.5: rebound / approach = 0.5.
+# The polyhedra engine cannot prescribe a stone's motion: there the rough stone approaches freely and its loading
+# half-contact is compared with the virgin curve (force at every window's last evaluation, as in the cycle's peak).
 # Run: ./railcosim yade yade_engines/checks/contact_law_paths.py PATH/TO/railcosim_dummy_fem   (about 10 s)
 import math
 import os
@@ -233,6 +236,64 @@ for _ in range(20000):
 coupling.finalize()
 fem.wait(10)
 report_restitution("FE surface", O.bodies[sphere].state.vel[2])
+check(fem.returncode == 0, f"stand-in FEM exited cleanly (code {fem.returncode})")
+
+
+
+# --- path 3: a polyhedral stone of PolyhedraGpuEngine on the coupled surface (contactModel='polyhedra') --------------
+# The engine's restitution (0.3) is that of FrictMat materials only: the BallastMat stone and surface bring their own.
+POINT = 1e-7  # [m] a tetrahedron this small dilated by R is the sphere of radius R to 1e-5 of R
+TETRA = [Vector3(0, 0, -POINT), Vector3(0.943 * POINT, 0, POINT / 3), Vector3(-0.471 * POINT, 0.816 * POINT, POINT / 3),
+         Vector3(-0.471 * POINT, -0.816 * POINT, POINT / 3)]
+
+
+def polyhedra_run(dt, subcycles, material_of, speed):
+    fem_dt = dt * subcycles
+    O.reset()
+    endpoint = f"ipc:///tmp/railcosim-check-{os.getpid()}-{uuid.uuid4().hex[:6]}.sock"
+    fem = subprocess.Popen([dummy_fem, "--endpoint", endpoint, "--nx", "2", "--ny", "2", "--spacing", "0.2",
+                            "--dt", str(fem_dt), "--mass", "1e10", "--stiffness", "1e16", "--timeout", "30"])
+    material = O.materials.append(material_of)
+    stone = O.bodies.append(utils.sphere((0.13, 0.06, RADIUS + POINT + 1e-7), RADIUS, material=material))
+    O.bodies[stone].state.vel = (0, 0, -speed)
+    engine = PolyhedraGpuEngine(dilationRadius=RADIUS, restitution=0.3, gravity=(0, 0, 0), backend="cpu")
+    engine.addStone(stone, TETRA)
+    coupling = FemCouplingEngine(endpoint=endpoint, material=O.materials[material], timeout=30,
+                                 contactModel="polyhedra", restitution=material_of.restitution, subcycles=subcycles)
+    O.engines = [coupling, engine]
+    O.dt = dt
+    coupling.connect()
+    return fem, coupling, engine, stone
+
+
+# The free stone's loading half-contact lasts ~2e-4 s: windows of 50 steps of 1e-8 s sample it some 400 times.
+fem, coupling, engine, stone = polyhedra_run(1e-8, 50, granite(True), CYCLE_SPEED)
+loading = []  # (overlap, normal force) at the last evaluation of each window while the stone still approaches
+for _ in range(2000):
+    O.run(50, True)
+    contacts = engine.contacts()
+    if contacts and O.bodies[stone].state.vel[2] < 0:
+        loading.append((contacts[0]["overlap"], contacts[0]["force"].dot(contacts[0]["normal"])))
+    elif loading:
+        break
+coupling.finalize()
+fem.wait(10)
+worst = max((abs(force / virgin_force(overlap) - 1) for overlap, force in loading), default=1.0)
+check(len(loading) >= 3 and worst < PEAK_FORCE_TOLERANCE,
+      f"polyhedra: {len(loading)} loading samples up to {max(f for _, f in loading) if loading else 0:.4f} N on the "
+      f"virgin curve (largest rel. error {worst:.1e} < {PEAK_FORCE_TOLERANCE})")
+check(fem.returncode == 0, f"stand-in FEM exited cleanly (code {fem.returncode})")
+
+fem, coupling, engine, stone = polyhedra_run(IMPACT_DT, 100, granite(False), IMPACT_SPEED)
+touched = False
+for _ in range(200):
+    O.run(100, True)
+    touched = touched or len(engine.contacts()) > 0
+    if touched and not engine.contacts():
+        break
+coupling.finalize()
+fem.wait(10)
+report_restitution("polyhedra", O.bodies[stone].state.vel[2])
 check(fem.returncode == 0, f"stand-in FEM exited cleanly (code {fem.returncode})")
 
 print("contact_law_paths:", "FAILED" if failures else "passed", flush=True)

@@ -208,6 +208,20 @@ struct StateHeader {
 };
 } // namespace
 
+Material materialOf(const kernels::ContactMaterial& m) {
+  Material result;
+  result.youngModulus = m.youngModulus;
+  result.poissonRatio = m.poissonRatio;
+  result.restitution = m.restitution;
+  result.friction = m.frictionCoefficient;
+  result.roughnessRms = m.roughnessRms;
+  result.fractalDimension = m.fractalDimension;
+  result.plasticUnloading = m.plasticUnloading;
+  result.frictionExponent = m.frictionExponent;
+  result.maxContactStress = m.maxContactStress;
+  return result;
+}
+
 const char* backendName(Backend backend) {
   switch (backend) {
     case Backend::Automatic:
@@ -623,7 +637,8 @@ void PolyhedraSystem::setSurfaceKinematics(const std::vector<double>& positions,
     fail("setSurfaceKinematics", "expected " + std::to_string(m.data.nodePosition.size()) +
                                      " position and velocity values, got " + std::to_string(positions.size()) +
                                      " and " + std::to_string(velocities.size()));
-  m.sync();
+  // No download first: the host's node arrays are replaced whole and uploaded, so a later download brings the same
+  // positions back (the CUDA backend would otherwise copy the whole state to the host once per coupling window).
   m.data.nodePosition = positions;
   m.data.nodeVelocity = velocities;
   if (m.started) m.backend->uploadSurface(m.data);
@@ -654,10 +669,14 @@ void PolyhedraSystem::step(int steps) {
   m.hostCurrent = m.active == Backend::Cpu;
   if (counters.values[counterPairOverflow] > 0 || counters.values[counterWallOverflow] > 0) {
     std::ostringstream message;
-    message << "neighbour list overflow: a stone had " << counters.values[counterPairOverflow]
-            << " stone candidates (maxNeighbours = " << d.maxPairs << ") or " << counters.values[counterWallOverflow]
-            << " wall candidates (maxWallNeighbours = " << d.maxWalls
-            << "); contacts were lost, the state is invalid. Raise the limit or lower neighbourSkin";
+    message << "neighbour list overflow:";
+    if (counters.values[counterPairOverflow] > 0)
+      message << " a stone had " << counters.values[counterPairOverflow] << " stone candidates (maxNeighbours = "
+              << d.maxPairs << ")";
+    if (counters.values[counterWallOverflow] > 0)
+      message << " a stone had " << counters.values[counterWallOverflow] << " wall candidates (maxWallNeighbours = "
+              << d.maxWalls << ")";
+    message << "; contacts were lost, the state is invalid. Raise the limit or lower neighbourSkin";
     fail("step", message.str());
   }
   m.statistics = StepStatistics{};

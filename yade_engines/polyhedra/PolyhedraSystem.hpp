@@ -8,6 +8,10 @@
 #include <string>
 #include <vector>
 
+namespace railcosim::kernels {
+struct ContactMaterial;
+}
+
 namespace railcosim::polyhedra {
 
 /// A convex core polyhedron shared by every stone of one shape (a "shape template"). The stone is the
@@ -46,6 +50,10 @@ struct Material {
   double frictionExponent = 0.0; ///< γ_μ ≤ 0 [-] of the stress-dependent friction between stones; 0: constant μ
   double maxContactStress = 0.0; ///< σ_c,max [Pa] of the stress-dependent friction; 0: constant μ
 };
+
+/// The polyhedra Material of a contact-law material (kernels/ContactLaw.hpp; e.g. YADE's, from contactMaterialOf):
+/// every field but the rolling friction, which stones do not have.
+Material materialOf(const kernels::ContactMaterial& material);
 
 enum class Backend { Automatic, Cpu, Cuda };
 

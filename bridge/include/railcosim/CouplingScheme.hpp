@@ -2,8 +2,10 @@
 #pragma once
 
 #include "railcosim/BridgeTypes.hpp"
+#include "railcosim/Checkpoint.hpp"
 
 #include <cstdint>
+#include <iosfwd>
 #include <memory>
 #include <string>
 #include <vector>
@@ -12,6 +14,8 @@ namespace railcosim {
 
 class DemParticipant;
 class FemParticipant;
+class StateReader;
+class StateWriter;
 
 /// The schemes of Ullrich 2022 (Sec. 3.4) and the implicit window iteration (docs/coupling-schemes.md).
 enum class CouplingScheme {
@@ -69,12 +73,19 @@ struct WindowIterationStatistics {
 ///   loop: if (scheme->requiresWritingCheckpoint()) { save state; scheme->markCheckpointWritten(); }
 ///         each DEM step: scheme->surfaceAt(tau, P, V); ... gather forces
 ///         at the window end: r = scheme->completeWindow(forces, t, touched); if (r.repeat) restore state
+/// Restart checkpoints (between two windows): files = scheme->orderRestart(name, t) has the FEM side save its part;
+/// scheme->writeState(out) is the scheme's; a resumed run makes its scheme with resume() from that state.
 class DemCouplingScheme {
 public:
   /// The scheme `settings` names (the handshake already refused a FEM side configured for another one).
   /// May exchange messages (predictive: receives the FEM's first step).
   static std::unique_ptr<DemCouplingScheme> create(const SchemeSettings& settings, DemParticipant& participant,
                                                    const InterfaceSetup& setup);
+  /// The scheme of a run resumed from a restart checkpoint: `state` is what writeState() wrote in the interrupted
+  /// run; `participant` was initialized with ParticipantConfig::resumedFrom, and nothing is exchanged here. Throws
+  /// CheckpointError if the state is of another scheme or the FEM side's window length differs from the saved one.
+  static std::unique_ptr<DemCouplingScheme> resume(const SchemeSettings& settings, DemParticipant& participant,
+                                                   const InterfaceSetup& setup, std::istream& state);
   virtual ~DemCouplingScheme();
 
   CouplingScheme scheme() const { return scheme_; }
@@ -97,11 +108,20 @@ public:
   const WindowIterationStatistics& iterationStatistics() const { return iterationStatistics_; }
   /// FEM state received last (the end of the window just completed, or of the first FEM step).
   const NodalKinematics& lastReceived() const { return lastReceived_; }
+  /// Between two windows: orders the FEM side's part of restart checkpoint `name` (t_window = `time` [s]) and
+  /// returns its files once they are written. The scheme's own part is writeState().
+  std::vector<CheckpointFile> orderRestart(const std::string& name, double time);
+  /// Everything the scheme needs to go on from this window boundary: the window, the surface motion, the FEM state
+  /// received last, the statistics, and the scheme's own (implicit: the accepted state, Aitken's factor).
+  void writeState(std::ostream& out) const;
 
 protected:
   DemCouplingScheme(CouplingScheme scheme, DemParticipant& participant, const InterfaceSetup& setup);
   /// Scheme-specific half of completeWindow: exchange, judge, set the next window's surface motion.
   virtual WindowResult exchange(const ForceMessage& message, bool surfaceTouched) = 0;
+  /// The scheme's own state beyond the base class's, in writeState() and resume().
+  virtual void writeOwnState(StateWriter&) const {}
+  virtual void readOwnState(StateReader&) {}
   /// Sum of F . (P_end - P_start) over the values of `forces`.
   static double work(const std::vector<double>& forces, const NodalKinematics& from, const NodalKinematics& to);
 
@@ -113,6 +133,7 @@ protected:
   WindowIterationStatistics iterationStatistics_;
 
 private:
+  void readState(std::istream& in, const InterfaceSetup& setup);
   CouplingScheme scheme_;
   std::uint64_t window_ = 0;
 };
@@ -120,23 +141,44 @@ private:
 /// FEM side of a coupling scheme. The FEM solver steps once per window; the scheme says which forces load
 /// the step, whether to save or restore the solver state first, and when a solved step is final. Use:
 ///   scheme = FemCouplingScheme::create(participant);                    // after participant.initialize()
-///   while (scheme->beginStep(forces)) {
+///   while ((action = scheme->beginStep(forces)) != Action::Stop) {
 ///     if (scheme->takeAcceptedStep()) record the previous step;
+///     if (action == Action::SaveRestart) { save the solver state, scheme->writeState(); scheme->confirmRestart(files);
+///                                          continue; }
 ///     if (scheme->requiresWritingCheckpoint()) save u, v, a, t;  if (scheme->requiresReadingCheckpoint()) restore;
 ///     solve with forces; scheme->endStep(kinematics at the step end);
 ///     if (scheme->takeAcceptedStep()) record this step;
 ///   }
 ///   if (scheme->takeAcceptedStep()) record the last step;
+/// (requiresWritingCheckpoint: the implicit scheme's in-memory checkpoint for repeating a window; a restart
+/// checkpoint, SaveRestart, is one on disk from which a new process goes on.)
 class FemCouplingScheme {
 public:
+  /// What beginStep() asks of the FEM solver.
+  enum class Action {
+    Solve,       // solve the next step with the forces returned
+    SaveRestart, // the DEM side ordered restart checkpoint restartOrder(): save the state, confirmRestart()
+    Stop,        // the DEM side ended the run
+  };
+
   /// The scheme agreed at the handshake (this side's, else the DEM side's, else just-in-time).
   static std::unique_ptr<FemCouplingScheme> create(FemParticipant& participant, std::size_t nodeCount);
+  /// The scheme of a run resumed from a restart checkpoint (`state`: what writeState() wrote); `participant` was
+  /// initialized with ParticipantConfig::resumedFrom. Throws CheckpointError for the state of another scheme.
+  static std::unique_ptr<FemCouplingScheme> resume(FemParticipant& participant, std::size_t nodeCount,
+                                                   std::istream& state);
   virtual ~FemCouplingScheme();
 
   CouplingScheme scheme() const { return scheme_; }
-  /// Waits, if the scheme orders it, for the nodal forces [N] that load the next step (3 per node).
-  /// false once the DEM side has ended the run (forces untouched).
-  virtual bool beginStep(std::vector<double>& forces) = 0;
+  /// Waits, if the scheme orders it, for the DEM side's next message: nodal forces [N] that load the next step
+  /// (3 per node; Solve), a restart checkpoint to save (SaveRestart; forces untouched) or the end (Stop).
+  virtual Action beginStep(std::vector<double>& forces) = 0;
+  /// SaveRestart: the checkpoint to save (window, time, folder name).
+  const CheckpointOrder& restartOrder() const { return restartOrder_; }
+  /// SaveRestart: this side's files of the checkpoint are written; tells the DEM side which they are.
+  void confirmRestart(const std::vector<CheckpointFile>& files);
+  /// The scheme's state at this window boundary, for the restart checkpoint.
+  void writeState(std::ostream& out) const;
   bool requiresWritingCheckpoint() const { return writeCheckpoint_; } // save the solver state before solving
   bool requiresReadingCheckpoint() const { return readCheckpoint_; }  // restore it before solving
   /// Sends the interface kinematics at the end of the step just solved.
@@ -150,8 +192,10 @@ public:
 
 protected:
   FemCouplingScheme(CouplingScheme scheme, FemParticipant& participant, std::size_t nodeCount);
-  /// Receives the next forces into `forces`; false when the DEM side finalized.
-  bool receive(std::vector<double>& forces);
+  /// Receives the DEM side's next message: forces into `forces` (Solve), a restart order (SaveRestart) or the end.
+  Action receive(std::vector<double>& forces);
+  virtual void writeOwnState(StateWriter&) const {}
+  virtual void readOwnState(StateReader&) {}
 
   FemParticipant& participant_;
   std::size_t nodeCount_;
@@ -161,10 +205,12 @@ protected:
   bool acceptedPending_ = false;
 
 private:
+  void readState(std::istream& in);
   CouplingScheme scheme_;
   std::uint64_t windowsReceived_ = 0;
   double forcesTime_ = 0.0;
   std::uint32_t forcesIteration_ = 0;
+  CheckpointOrder restartOrder_;
 };
 
 } // namespace railcosim

@@ -18,6 +18,13 @@ public:
   explicit ProtocolError(const std::string& message) : Error(message) {}
 };
 
+/// A restart checkpoint that cannot be used: incomplete, corrupt, of another protocol version, run or solver set-up.
+/// Its message is one line saying which checkpoint, what is wrong and what to do.
+class CheckpointError : public Error {
+public:
+  explicit CheckpointError(const std::string& message) : Error(message) {}
+};
+
 /// The peer process died, disconnected, stayed silent past the timeout, or aborted.
 class PeerLostError : public Error {
 public:

@@ -10,6 +10,9 @@
 
 namespace railcosim {
 
+class StateReader;
+class StateWriter;
+
 /// One window of the implicit scheme as the DEM side sees it:
 ///   guess P~_0 = P + V dt + A dt²/2 from the accepted state at t_i (the FEM's, or the initial one);
 ///   pass k: the DEM simulates the window with the surface moving linearly from P(t_i) to P~_k
@@ -39,6 +42,11 @@ public:
   double convergenceLimit() const { return limit_; }     // the rms|r| it had to reach [m]
   double relaxation() const { return omega_; }           // ω applied after the last judged pass
   const ImplicitSettings& settings() const { return settings_; }
+  /// The iteration's state (accepted state, assumed end, residuals, pass, Aitken's factor ω) for a restart
+  /// checkpoint; readState() continues from it bit for bit. The settings and the reference positions are the
+  /// constructor's and must be the saved ones (checked: reference positions, window length).
+  void writeState(StateWriter& state) const;
+  void readState(StateReader& state);
 
 private:
   void setSurface();

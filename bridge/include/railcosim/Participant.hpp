@@ -2,12 +2,21 @@
 #pragma once
 
 #include "railcosim/BridgeTypes.hpp"
+#include "railcosim/Checkpoint.hpp"
 
 #include <memory>
 #include <optional>
 #include <string>
 
 namespace railcosim {
+
+/// What the DEM side sent the FEM side next (FemParticipant::receive).
+struct FemIncoming {
+  enum class Kind { Forces, Checkpoint, Finalized };
+  Kind kind = Kind::Finalized;
+  ForceMessage forces;        // Kind::Forces
+  CheckpointOrder checkpoint; // Kind::Checkpoint: save the state now, then confirmCheckpoint()
+};
 
 /// FEM side: sends the mesh, then per window receives forces and returns kinematics.
 class FemParticipant {
@@ -23,7 +32,14 @@ public:
   /// Next window's forces, or std::nullopt once the DEM side has finalized (run over).
   /// Implicit scheme: the forces of the next pass over the same window (iteration k+1) or of the
   /// next window (iteration 0, meaning the last pass converged: keep its state, step on).
+  /// A restart checkpoint ordered by the DEM side is refused here (this call has no way to report it): a FEM
+  /// side that can save its state reads with receive().
   std::optional<ForceMessage> receiveForces();
+  /// The DEM side's next message: forces as receiveForces() returns them, the end of the run, or a restart
+  /// checkpoint to save (at a window boundary; the state to save is the one after the last kinematics sent).
+  FemIncoming receive();
+  /// Tells the DEM side that this side's files of checkpoint `window` are written (and which they are).
+  void confirmCheckpoint(std::uint64_t window, const std::vector<CheckpointFile>& files);
   /// Kinematics at the end of window `window` (time t_i+1). Implicit scheme: answers the pass
   /// whose forces were received last (same window, same iteration).
   void sendKinematics(std::uint64_t window, const NodalKinematics& kinematics);
@@ -56,6 +72,9 @@ public:
   /// Kinematics for window `window` (implicit: of the pass just sent); throws PeerLostError if the
   /// FEM side finalized or vanished.
   NodalKinematics receiveKinematics(std::uint64_t window);
+  /// Restart checkpoint at the boundary of window `order.window` (every Forces sent so far answered, the next not
+  /// sent yet): orders the FEM side to save its state into checkpoint `order.name` and returns its files once it has.
+  std::vector<CheckpointFile> orderCheckpoint(const CheckpointOrder& order);
   void finalize();
   void abort(const std::string& reason);
   const BridgeStatistics& statistics() const;

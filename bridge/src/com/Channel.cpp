@@ -264,7 +264,7 @@ struct Channel::Impl {
   // only in between (try_lock), so ZeroMQ's single-thread rule holds and the owner never waits for it.
   std::mutex socketMutex;
   Clock::time_point lastSent = Clock::now();  // guarded by socketMutex
-  Clock::time_point lastHeard = Clock::now(); // owner only
+  Clock::time_point lastHeard = Clock::now(); // guarded by socketMutex (the owner's calls, drainMonitor)
   std::thread keepalive;
   std::mutex keepaliveMutex;
   std::condition_variable keepaliveWake;
@@ -481,6 +481,9 @@ void Channel::Impl::drainMonitor() {
       case ZMQ_EVENT_HANDSHAKE_SUCCEEDED:
         // Binding side: only the admitted connection gets here (the admission handler lets one in).
         seen = true;
+        // The peer's silence counts from its connection: a peer that bound late (a solver still assembling
+        // its matrices) has been silent only since now, however long this side waited for it.
+        lastHeard = Clock::now();
         log(LogLevel::Debug, "bridge transport: peer connected on " + options.endpoint);
         break;
       case ZMQ_EVENT_DISCONNECTED:

@@ -33,6 +33,9 @@ void validate(const ParticipantConfig& config, const char* role) {
       throw Error(who + ": couplingScheme: " + error.what());
     }
   }
+  if (config.resumedFrom.empty() && config.resumedWindow != 0)
+    throw Error(who + ": resumedWindow = " + std::to_string(config.resumedWindow) +
+                " without resumedFrom; name the checkpoint the run resumed from");
   if (!(config.heartbeatSeconds > 0.0) || !std::isfinite(config.heartbeatSeconds) || config.heartbeatSeconds > 3600.0) {
     std::ostringstream message;
     message << who << ": heartbeatSeconds = " << config.heartbeatSeconds << "; it must be in (0, 3600] seconds";

@@ -2,8 +2,11 @@
 #include "railcosim/CouplingScheme.hpp"
 #include "railcosim/Error.hpp"
 #include "railcosim/Participant.hpp"
+#include "railcosim/StateStream.hpp"
 #include "railcosim/WindowInterpolation.hpp"
 
+#include <istream>
+#include <ostream>
 #include <utility>
 
 namespace railcosim {
@@ -42,6 +45,68 @@ WindowResult DemCouplingScheme::completeWindow(std::vector<double> forces, doubl
   return result;
 }
 
+std::vector<CheckpointFile> DemCouplingScheme::orderRestart(const std::string& name, double time) {
+  // A window the implicit scheme repeats is not a boundary: the participant's message order refuses it.
+  CheckpointOrder order;
+  order.window = window_;
+  order.time = time;
+  order.name = name;
+  return participant_.orderCheckpoint(order);
+}
+
+// Layout of a scheme's state: the scheme's name first, so that a state is never read into another scheme.
+void DemCouplingScheme::writeState(std::ostream& out) const {
+  StateWriter state(out);
+  state.section("dem coupling scheme");
+  state.text(toString(scheme_));
+  state.u64(window_);
+  state.real(windowLength_);
+  state.kinematics(windowStart_);
+  state.kinematics(lastReceived_);
+  state.flag(checkpointDue_);
+  const WindowIterationStatistics& s = iterationStatistics_;
+  state.i64(s.passes);
+  state.i64(s.lastWindowPasses);
+  state.i64(s.maxWindowPasses);
+  state.i64(s.unconvergedWindows);
+  state.real(s.lastResidual);
+  state.real(s.lastLimit);
+  state.section("dem " + toString(scheme_));
+  writeOwnState(state);
+  state.section("end");
+}
+
+void DemCouplingScheme::readState(std::istream& in, const InterfaceSetup& setup) {
+  StateReader state(in, "of the DEM coupling scheme");
+  state.section("dem coupling scheme");
+  const std::string saved = state.text();
+  if (saved != toString(scheme_))
+    throw CheckpointError("the checkpoint's DEM side coupled with the " + saved + " scheme, this run with the " +
+                          toString(scheme_) + " scheme; resume with the scheme of the interrupted run");
+  window_ = state.u64();
+  windowLength_ = state.real();
+  if (windowLength_ != setup.femTimeStep)
+    throw CheckpointError("the FEM side's window is " + std::to_string(setup.femTimeStep) + " s, the checkpoint's " +
+                          std::to_string(windowLength_) + " s; resume with the FEM time step of the interrupted run");
+  windowStart_ = state.kinematics();
+  lastReceived_ = state.kinematics();
+  checkpointDue_ = state.flag();
+  WindowIterationStatistics& s = iterationStatistics_;
+  s.passes = state.i64();
+  s.lastWindowPasses = state.i64();
+  s.maxWindowPasses = state.i64();
+  s.unconvergedWindows = state.i64();
+  s.lastResidual = state.real();
+  s.lastLimit = state.real();
+  state.section("dem " + toString(scheme_));
+  readOwnState(state);
+  state.section("end");
+  if (windowStart_.positions.size() != setup.mesh.coordinates.size())
+    throw CheckpointError("the checkpoint's interface has " + std::to_string(windowStart_.positions.size() / 3) +
+                          " nodes, the FEM side's " + std::to_string(setup.mesh.nodeCount()) +
+                          "; resume with the structure of the interrupted run");
+}
+
 double DemCouplingScheme::work(const std::vector<double>& forces, const NodalKinematics& from,
                                const NodalKinematics& to) {
   double sum = 0.0;
@@ -60,15 +125,59 @@ bool FemCouplingScheme::takeAcceptedStep() {
   return accepted;
 }
 
-bool FemCouplingScheme::receive(std::vector<double>& forces) {
-  const auto message = participant_.receiveForces();
-  if (!message) return false;
-  forces = message->forces;
-  forcesTime_ = message->time;
-  forcesIteration_ = message->iteration;
-  window_ = message->window;
-  windowsReceived_ = message->window + 1;
-  return true;
+FemCouplingScheme::Action FemCouplingScheme::receive(std::vector<double>& forces) {
+  FemIncoming incoming = participant_.receive();
+  if (incoming.kind == FemIncoming::Kind::Finalized) return Action::Stop;
+  if (incoming.kind == FemIncoming::Kind::Checkpoint) {
+    restartOrder_ = incoming.checkpoint;
+    return Action::SaveRestart;
+  }
+  ForceMessage& message = incoming.forces;
+  forces = std::move(message.forces);
+  forcesTime_ = message.time;
+  forcesIteration_ = message.iteration;
+  window_ = message.window;
+  windowsReceived_ = message.window + 1;
+  return Action::Solve;
+}
+
+void FemCouplingScheme::confirmRestart(const std::vector<CheckpointFile>& files) {
+  participant_.confirmCheckpoint(restartOrder_.window, files);
+}
+
+void FemCouplingScheme::writeState(std::ostream& out) const {
+  StateWriter state(out);
+  state.section("fem coupling scheme");
+  state.text(toString(scheme_));
+  state.u64(window_);
+  state.u64(windowsReceived_);
+  state.real(forcesTime_);
+  state.u64(forcesIteration_);
+  state.flag(writeCheckpoint_);
+  state.flag(readCheckpoint_);
+  state.flag(acceptedPending_);
+  state.section("fem " + toString(scheme_));
+  writeOwnState(state);
+  state.section("end");
+}
+
+void FemCouplingScheme::readState(std::istream& in) {
+  StateReader state(in, "of the FEM coupling scheme");
+  state.section("fem coupling scheme");
+  const std::string saved = state.text();
+  if (saved != toString(scheme_))
+    throw CheckpointError("the checkpoint's FEM side coupled with the " + saved + " scheme, this run with the " +
+                          toString(scheme_) + " scheme; resume with the scheme of the interrupted run");
+  window_ = state.u64();
+  windowsReceived_ = state.u64();
+  forcesTime_ = state.real();
+  forcesIteration_ = static_cast<std::uint32_t>(state.u64());
+  writeCheckpoint_ = state.flag();
+  readCheckpoint_ = state.flag();
+  acceptedPending_ = state.flag();
+  state.section("fem " + toString(scheme_));
+  readOwnState(state);
+  state.section("end");
 }
 
 } // namespace railcosim

@@ -1,6 +1,7 @@
 // Window iteration of the implicit scheme: predictor, residual, convergence test, Aitken relaxation.
 #include "railcosim/ImplicitCoupling.hpp"
 #include "railcosim/Error.hpp"
+#include "railcosim/StateStream.hpp"
 
 #include <cmath>
 #include <sstream>
@@ -98,6 +99,36 @@ ImplicitWindowIteration::Outcome ImplicitWindowIteration::judge(const NodalKinem
   ++iteration_;
   setSurface();
   return Outcome::Repeat;
+}
+
+void ImplicitWindowIteration::writeState(StateWriter& state) const {
+  state.section("implicit window iteration");
+  state.reals(reference_);
+  state.real(windowLength_);
+  state.kinematics(accepted_);
+  state.reals(assumed_);
+  state.reals(residual_);
+  state.reals(previousResidual_);
+  state.kinematics(surfaceStart_);
+  state.u64(iteration_);
+  state.real(omega_);
+  state.real(residualNorm_);
+  state.real(limit_);
+}
+
+void ImplicitWindowIteration::readState(StateReader& state) {
+  state.section("implicit window iteration");
+  if (state.reals() != reference_) state.fail("the interface's reference positions differ from the saved ones");
+  if (state.real() != windowLength_) state.fail("the window length differs from the saved one");
+  accepted_ = state.kinematics();
+  assumed_ = state.reals();
+  residual_ = state.reals();
+  previousResidual_ = state.reals();
+  surfaceStart_ = state.kinematics();
+  iteration_ = static_cast<std::uint32_t>(state.u64());
+  omega_ = state.real();
+  residualNorm_ = state.real();
+  limit_ = state.real();
 }
 
 std::string toString(ImplicitWindowIteration::Outcome outcome) {

@@ -3,6 +3,7 @@
 #include "cplscheme/SchemeRegistry.hpp"
 #include "railcosim/ImplicitCoupling.hpp"
 #include "railcosim/Participant.hpp"
+#include "railcosim/StateStream.hpp"
 
 #include <algorithm>
 
@@ -24,6 +25,15 @@ public:
   bool iterates() const override { return true; }
 
 private:
+  void writeOwnState(StateWriter& state) const override {
+    state.kinematics(accepted_);
+    iteration_.writeState(state);
+  }
+  void readOwnState(StateReader& state) override {
+    accepted_ = state.kinematics();
+    iteration_.readState(state);
+  }
+
   WindowResult exchange(const ForceMessage& message, bool surfaceTouched) override {
     participant_.sendForces(message);
     lastReceived_ = participant_.receiveKinematics(message.window);
@@ -61,13 +71,15 @@ public:
   ImplicitFem(FemParticipant& participant, std::size_t nodeCount)
       : FemCouplingScheme(CouplingScheme::Implicit, participant, nodeCount) {}
 
-  bool beginStep(std::vector<double>& forces) override {
+  Action beginStep(std::vector<double>& forces) override {
     writeCheckpoint_ = readCheckpoint_ = false;
     // The DEM side finalizes after an accepted window or inside a later one; the last solved pass stands
-    // (when it stopped during a repeated window, that pass was not judged converged).
-    if (!receive(forces)) {
+    // (when it stopped during a repeated window, that pass was not judged converged). A restart checkpoint is
+    // ordered only at a window boundary: the DEM side accepted the last pass.
+    const Action action = receive(forces);
+    if (action != Action::Solve) {
       acceptSolved();
-      return false;
+      return action;
     }
     // Pass 0 of a window accepts the previous pass and starts from its state; a later pass solves the same
     // window again from that state with the DEM's new forces.
@@ -77,7 +89,7 @@ public:
     } else {
       readCheckpoint_ = true;
     }
-    return true;
+    return Action::Solve;
   }
 
   void endStep(const NodalKinematics& end) override {
@@ -86,6 +98,9 @@ public:
   }
 
 private:
+  void writeOwnState(StateWriter& state) const override { state.flag(solved_); }
+  void readOwnState(StateReader& state) override { solved_ = state.flag(); }
+
   void acceptSolved() {
     if (solved_) acceptedPending_ = true;
     solved_ = false;
@@ -105,12 +120,12 @@ public:
   }
   bool forcesAllowed(std::uint64_t window, std::uint32_t iteration) const override {
     const bool next = window == nextForces_ && iteration == 0;
-    const bool repeat = nextForces_ > 0 && window == nextForces_ - 1 && iteration == iteration_ + 1;
+    const bool repeat = !closed_ && nextForces_ > 0 && window == nextForces_ - 1 && iteration == iteration_ + 1;
     return !owed_ && (next || repeat);
   }
   std::string expectedForces() const override {
     std::string text = "window " + std::to_string(nextForces_);
-    if (nextForces_ > 0) {
+    if (nextForces_ > 0 && !closed_) {
       text +=
           " or for window " + std::to_string(nextForces_ - 1) + " (iteration " + std::to_string(iteration_ + 1) + ")";
     }
@@ -120,6 +135,7 @@ public:
     if (iteration == 0) nextForces_ = window + 1;
     iteration_ = iteration;
     owed_ = true;
+    closed_ = false;
   }
   bool kinematicsAllowed(std::uint64_t window) const override { return owed_ && window + 1 == nextForces_; }
   std::string expectedKinematics() const override {
@@ -131,14 +147,23 @@ public:
     nextKinematics_ = window + 1;
     owed_ = false;
   }
+  bool checkpointAllowed(std::uint64_t window) const override { return !owed_ && window == nextForces_; }
+  void checkpointExchanged(std::uint64_t) override { closed_ = true; }
+  void resumeAt(std::uint64_t window) override {
+    nextForces_ = nextKinematics_ = window;
+    iteration_ = 0;
+    owed_ = false;
+    closed_ = true;
+  }
 
 private:
   std::uint32_t iteration_ = 0; // pass of the forces exchanged last
   bool owed_ = false;           // forces exchanged, their kinematics not yet
+  bool closed_ = false;         // a checkpoint accepted the last window: only the next one may follow
 };
 
 std::unique_ptr<DemCouplingScheme> makeDem(const SchemeSettings& settings, DemParticipant& participant,
-                                           const InterfaceSetup& setup) {
+                                           const InterfaceSetup& setup, bool) {
   return std::make_unique<ImplicitDem>(settings.implicit, participant, setup);
 }
 

@@ -28,7 +28,7 @@ public:
   JustInTimeFem(FemParticipant& participant, std::size_t nodeCount)
       : FemCouplingScheme(CouplingScheme::JustInTime, participant, nodeCount) {}
 
-  bool beginStep(std::vector<double>& forces) override { return receive(forces); }
+  Action beginStep(std::vector<double>& forces) override { return receive(forces); }
 
   void endStep(const NodalKinematics& end) override {
     participant_.sendKinematics(window_, end);
@@ -37,7 +37,7 @@ public:
 };
 
 std::unique_ptr<DemCouplingScheme> makeDem(const SchemeSettings&, DemParticipant& participant,
-                                           const InterfaceSetup& setup) {
+                                           const InterfaceSetup& setup, bool) {
   return std::make_unique<JustInTimeDem>(participant, setup);
 }
 

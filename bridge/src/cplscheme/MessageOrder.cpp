@@ -33,4 +33,18 @@ std::string SequentialOrder::expectedKinematics() const {
 
 void SequentialOrder::kinematicsExchanged(std::uint64_t window) { nextKinematics_ = window + 1; }
 
+bool SequentialOrder::checkpointAllowed(std::uint64_t window) const {
+  return window == nextForces_ && nextKinematics_ == nextForces_ + lead_;
+}
+
+void SequentialOrder::resumeAt(std::uint64_t window) {
+  nextForces_ = window;
+  nextKinematics_ = window + lead_;
+}
+
+std::string MessageOrder::expectedCheckpoint() const {
+  return "window " + std::to_string(nextForces_) +
+         " (a checkpoint is taken at a window boundary: every Forces answered, the next Forces not yet sent)";
+}
+
 } // namespace railcosim::cplscheme

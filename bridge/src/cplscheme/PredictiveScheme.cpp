@@ -2,6 +2,7 @@
 // step); the DEM then moves the surface linearly between the FEM positions at the window ends (eq. 3.4-3.7).
 #include "cplscheme/SchemeRegistry.hpp"
 #include "railcosim/Participant.hpp"
+#include "railcosim/StateStream.hpp"
 #include "railcosim/WindowInterpolation.hpp"
 
 namespace railcosim::cplscheme {
@@ -9,8 +10,9 @@ namespace {
 
 class PredictiveDem : public DemCouplingScheme {
 public:
-  PredictiveDem(DemParticipant& participant, const InterfaceSetup& setup)
+  PredictiveDem(DemParticipant& participant, const InterfaceSetup& setup, bool fresh)
       : DemCouplingScheme(CouplingScheme::Predictive, participant, setup) {
+    if (!fresh) return; // resumed: the state comes from the checkpoint
     // The FEM has already stepped to t_1 with zero interface force and sent that state.
     lastReceived_ = participant_.receiveKinematics(0);
     windowStart_ = predictiveStart(setup.initial, lastReceived_, windowLength_);
@@ -36,15 +38,15 @@ public:
   PredictiveFem(FemParticipant& participant, std::size_t nodeCount)
       : FemCouplingScheme(CouplingScheme::Predictive, participant, nodeCount) {}
 
-  bool beginStep(std::vector<double>& forces) override {
+  Action beginStep(std::vector<double>& forces) override {
     if (!started_) {
       started_ = true;
       forces.assign(3 * nodeCount_, 0.0); // the first step runs before any DEM force exists
-      return true;
+      return Action::Solve;
     }
-    if (!receive(forces)) return false; // the last solved step stays: it ran on valid forces
-    window_ = windowsReceived();        // the forces of window i load the step of window i+1
-    return true;
+    const Action action = receive(forces); // Stop: the last solved step stays, it ran on valid forces
+    if (action == Action::Solve) window_ = windowsReceived(); // the forces of window i load the step of window i+1
+    return action;
   }
 
   void endStep(const NodalKinematics& end) override {
@@ -53,19 +55,22 @@ public:
   }
 
 private:
+  void writeOwnState(StateWriter& state) const override { state.flag(started_); }
+  void readOwnState(StateReader& state) override { started_ = state.flag(); }
+
   bool started_ = false;
 };
 
 std::unique_ptr<DemCouplingScheme> makeDem(const SchemeSettings&, DemParticipant& participant,
-                                           const InterfaceSetup& setup) {
-  return std::make_unique<PredictiveDem>(participant, setup);
+                                           const InterfaceSetup& setup, bool fresh) {
+  return std::make_unique<PredictiveDem>(participant, setup, fresh);
 }
 
 std::unique_ptr<FemCouplingScheme> makeFem(FemParticipant& participant, std::size_t nodeCount) {
   return std::make_unique<PredictiveFem>(participant, nodeCount);
 }
 
-std::unique_ptr<MessageOrder> makeOrder() { return std::make_unique<SequentialOrder>(); }
+std::unique_ptr<MessageOrder> makeOrder() { return std::make_unique<SequentialOrder>(1); }
 
 } // namespace
 

@@ -32,13 +32,34 @@ std::unique_ptr<MessageOrder> makeMessageOrder(CouplingScheme scheme) { return s
 std::unique_ptr<DemCouplingScheme> DemCouplingScheme::create(const SchemeSettings& settings,
                                                              DemParticipant& participant, const InterfaceSetup& setup) {
   settings.validate();
-  return cplscheme::schemeEntry(settings.scheme).makeDem(settings, participant, setup);
+  return cplscheme::schemeEntry(settings.scheme).makeDem(settings, participant, setup, true);
 }
 
-std::unique_ptr<FemCouplingScheme> FemCouplingScheme::create(FemParticipant& participant, std::size_t nodeCount) {
+std::unique_ptr<DemCouplingScheme> DemCouplingScheme::resume(const SchemeSettings& settings,
+                                                             DemParticipant& participant, const InterfaceSetup& setup,
+                                                             std::istream& state) {
+  settings.validate();
+  auto scheme = cplscheme::schemeEntry(settings.scheme).makeDem(settings, participant, setup, false);
+  scheme->readState(state, setup);
+  return scheme;
+}
+
+namespace {
+CouplingScheme agreedScheme(const FemParticipant& participant) {
   const std::string agreed = participant.couplingScheme();
-  const CouplingScheme scheme = agreed.empty() ? CouplingScheme::JustInTime : parseCouplingScheme(agreed);
-  return cplscheme::schemeEntry(scheme).makeFem(participant, nodeCount);
+  return agreed.empty() ? CouplingScheme::JustInTime : parseCouplingScheme(agreed);
+}
+} // namespace
+
+std::unique_ptr<FemCouplingScheme> FemCouplingScheme::create(FemParticipant& participant, std::size_t nodeCount) {
+  return cplscheme::schemeEntry(agreedScheme(participant)).makeFem(participant, nodeCount);
+}
+
+std::unique_ptr<FemCouplingScheme> FemCouplingScheme::resume(FemParticipant& participant, std::size_t nodeCount,
+                                                             std::istream& state) {
+  auto scheme = cplscheme::schemeEntry(agreedScheme(participant)).makeFem(participant, nodeCount);
+  scheme->readState(state);
+  return scheme;
 }
 
 } // namespace railcosim

@@ -11,7 +11,9 @@ namespace railcosim::cplscheme {
 
 struct SchemeEntry {
   CouplingScheme scheme;
-  std::unique_ptr<DemCouplingScheme> (*makeDem)(const SchemeSettings&, DemParticipant&, const InterfaceSetup&);
+  /// `fresh`: false for a run resumed from a checkpoint (the scheme's state is read next; nothing is exchanged).
+  std::unique_ptr<DemCouplingScheme> (*makeDem)(const SchemeSettings&, DemParticipant&, const InterfaceSetup&,
+                                                bool fresh);
   std::unique_ptr<FemCouplingScheme> (*makeFem)(FemParticipant&, std::size_t nodeCount);
   std::unique_ptr<MessageOrder> (*makeOrder)();
 };

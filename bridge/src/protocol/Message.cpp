@@ -3,6 +3,7 @@
 #include "railcosim/CouplingScheme.hpp"
 #include "railcosim/Error.hpp"
 
+#include <cctype>
 #include <cmath>
 #include <cstring>
 #include <sstream>
@@ -287,6 +288,25 @@ void writeKinematicsArrays(Writer& writer, const NodalKinematics& kinematics, co
   }
 }
 
+/// Why `name` cannot be a checkpoint folder name ("" when it can): it is joined to a folder on both sides.
+std::string checkpointNameProblem(const std::string& name) {
+  if (name.empty()) return "is empty";
+  if (name[0] == '.') return "'" + name + "' starts with '.'";
+  for (unsigned char c : name) {
+    if (!std::isalnum(c) && c != '.' && c != '-' && c != '_')
+      return "'" + name.substr(0, 80) + "' has a character other than letters, digits, '.', '-', '_'";
+  }
+  return "";
+}
+
+/// Why `text` is not a file list ("" when it is): printable text, fields separated by tabs, one file per line.
+std::string fileListProblem(const std::string& text) {
+  for (unsigned char c : text) {
+    if ((c < 32 && c != '\t' && c != '\n') || c == 127) return "contains a control character";
+  }
+  return "";
+}
+
 std::string checkedText(const std::string& value, const char* field) {
   if (value.size() > maxTextBytes) {
     std::ostringstream text;
@@ -313,6 +333,10 @@ std::string toString(MessageType type) {
       return "Finalize";
     case MessageType::Abort:
       return "Abort";
+    case MessageType::Checkpoint:
+      return "Checkpoint";
+    case MessageType::CheckpointWritten:
+      return "CheckpointWritten";
   }
   return "type " + std::to_string(static_cast<unsigned>(type));
 }
@@ -331,6 +355,8 @@ std::string describe(const Header& header) {
   switch (header.type) {
     case MessageType::Forces:
     case MessageType::Kinematics:
+    case MessageType::Checkpoint:
+    case MessageType::CheckpointWritten:
       return toString(header.type) + " for window " + std::to_string(header.window) +
              (header.iteration > 0 ? " (iteration " + std::to_string(header.iteration) + ")" : std::string());
     default:
@@ -342,10 +368,18 @@ std::vector<std::uint8_t> encodeHello(const Hello& hello, std::uint16_t version,
   const std::string name = checkedText(hello.participantName, "participantName");
   const std::string units = checkedText(hello.unitSystem, "unitSystem");
   const std::string scheme = checkedText(hello.couplingScheme, "couplingScheme");
+  const std::string resumedFrom = checkedText(hello.resumedFrom, "resumedFrom");
+  if (!resumedFrom.empty()) {
+    const std::string problem = checkpointNameProblem(resumedFrom);
+    if (!problem.empty()) throw ProtocolError("cannot encode Hello: field 'resumedFrom' " + problem);
+  } else if (hello.resumedWindow != 0) {
+    throw ProtocolError("cannot encode Hello: a resumed window without the checkpoint it comes from");
+  }
   Header header;
   header.version = version;
   header.type = MessageType::Hello;
-  header.payloadBytes = 1 + 2 + name.size() + 2 + units.size() + 2 + scheme.size();
+  header.window = hello.resumedWindow;
+  header.payloadBytes = 1 + 2 + name.size() + 2 + units.size() + 2 + scheme.size() + 2 + resumedFrom.size();
   Writer writer(headerBytes + header.payloadBytes, std::move(buffer));
   writeHeader(writer, header);
   writer.putU8(static_cast<std::uint8_t>(hello.role));
@@ -355,6 +389,8 @@ std::vector<std::uint8_t> encodeHello(const Hello& hello, std::uint16_t version,
   writer.putBytes(units.data(), units.size());
   writer.putU16(static_cast<std::uint16_t>(scheme.size()));
   writer.putBytes(scheme.data(), scheme.size());
+  writer.putU16(static_cast<std::uint16_t>(resumedFrom.size()));
+  writer.putBytes(resumedFrom.data(), resumedFrom.size());
   return writer.take();
 }
 
@@ -433,6 +469,37 @@ std::vector<std::uint8_t> encodeAbort(std::uint64_t window, const std::string& r
   return writer.take();
 }
 
+std::vector<std::uint8_t> encodeCheckpoint(const CheckpointOrder& order, std::vector<std::uint8_t> buffer) {
+  const std::string name = checkedText(order.name, "name");
+  const std::string problem = checkpointNameProblem(name);
+  if (!problem.empty()) throw ProtocolError("cannot encode Checkpoint: field 'name' " + problem);
+  requireFiniteScalar(order.time, "cannot encode Checkpoint", "time");
+  Header header;
+  header.type = MessageType::Checkpoint;
+  header.window = order.window;
+  header.time = order.time;
+  header.payloadBytes = name.size();
+  Writer writer(headerBytes + header.payloadBytes, std::move(buffer));
+  writeHeader(writer, header);
+  writer.putBytes(name.data(), name.size());
+  return writer.take();
+}
+
+std::vector<std::uint8_t> encodeCheckpointWritten(std::uint64_t window, const std::string& files,
+                                                  std::vector<std::uint8_t> buffer) {
+  const std::string text = checkedText(files, "files");
+  const std::string problem = fileListProblem(text);
+  if (!problem.empty()) throw ProtocolError("cannot encode CheckpointWritten: field 'files' " + problem);
+  Header header;
+  header.type = MessageType::CheckpointWritten;
+  header.window = window;
+  header.payloadBytes = text.size();
+  Writer writer(headerBytes + header.payloadBytes, std::move(buffer));
+  writeHeader(writer, header);
+  writer.putBytes(text.data(), text.size());
+  return writer.take();
+}
+
 Header decodeHeader(const std::uint8_t* data, std::size_t size) {
   std::ostringstream text;
   // Magic and version sit at fixed offsets in every protocol version, so a mismatch is always reported as such.
@@ -460,7 +527,8 @@ Header decodeHeader(const std::uint8_t* data, std::size_t size) {
     throw ProtocolError(text.str());
   }
   const std::uint16_t type = reader.u16();
-  if (type < static_cast<std::uint16_t>(MessageType::Hello) || type > static_cast<std::uint16_t>(MessageType::Abort)) {
+  if (type < static_cast<std::uint16_t>(MessageType::Hello) ||
+      type > static_cast<std::uint16_t>(MessageType::CheckpointWritten)) {
     text << "field 'type' = " << type << " is not a message type of protocol version " << protocolVersion;
     throw ProtocolError(text.str());
   }
@@ -527,8 +595,13 @@ Hello decodeHello(const Header& header, const std::uint8_t* data) {
   const std::size_t schemeSize = reader.u16();
   needBytes(schemeSize, "couplingScheme");
   hello.couplingScheme = reader.text(schemeSize);
+  needBytes(2, "resumedFrom length");
+  const std::size_t resumedSize = reader.u16();
+  needBytes(resumedSize, "resumedFrom");
+  hello.resumedFrom = reader.text(resumedSize);
+  hello.resumedWindow = header.window;
   if (reader.remaining() != 0) {
-    text << "Hello is oversized: " << reader.remaining() << " bytes follow field 'couplingScheme'";
+    text << "Hello is oversized: " << reader.remaining() << " bytes follow field 'resumedFrom'";
     throw ProtocolError(text.str());
   }
   if (hello.participantName.empty()) throw ProtocolError("Hello: field 'participantName' is empty");
@@ -542,6 +615,15 @@ Hello decodeHello(const Header& header, const std::uint8_t* data) {
   if (hello.unitSystem != "SI") {
     throw ProtocolError("Hello from '" + hello.participantName + "': field 'unitSystem' is '" + hello.unitSystem +
                         "'; this side works in SI units (m, kg, s, N) only");
+  }
+  if (!hello.resumedFrom.empty()) {
+    const std::string problem = checkpointNameProblem(hello.resumedFrom);
+    if (!problem.empty())
+      throw ProtocolError("Hello from '" + hello.participantName + "': field 'resumedFrom' " + problem);
+  } else if (hello.resumedWindow != 0) {
+    throw ProtocolError("Hello from '" + hello.participantName + "': field 'window' is " +
+                        std::to_string(hello.resumedWindow) +
+                        " but field 'resumedFrom' is empty (a fresh start has window 0)");
   }
   return hello;
 }
@@ -640,6 +722,41 @@ void decodeFinalize(const Header& header) {
   requireFlags(header, 0);
   requireNoNodes(header);
   requirePayload(header, 0, "a Finalize message (no payload)");
+}
+
+CheckpointOrder decodeCheckpoint(const Header& header, const std::uint8_t* data) {
+  requireNoNodes(header);
+  requireNoTriangles(header);
+  requireFlags(header, 0);
+  if (header.payloadBytes > maxTextBytes) {
+    std::ostringstream text;
+    text << describe(header) << ": field 'payloadBytes' = " << header.payloadBytes << " exceeds the name limit of "
+         << maxTextBytes << " bytes";
+    throw ProtocolError(text.str());
+  }
+  CheckpointOrder order;
+  order.window = header.window;
+  order.time = header.time;
+  order.name.assign(reinterpret_cast<const char*>(data + headerBytes), static_cast<std::size_t>(header.payloadBytes));
+  const std::string problem = checkpointNameProblem(order.name);
+  if (!problem.empty()) throw ProtocolError(describe(header) + ": field 'name' " + problem);
+  return order;
+}
+
+std::string decodeCheckpointWritten(const Header& header, const std::uint8_t* data) {
+  requireNoNodes(header);
+  requireNoTriangles(header);
+  requireFlags(header, 0);
+  if (header.payloadBytes > maxTextBytes) {
+    std::ostringstream text;
+    text << describe(header) << ": field 'payloadBytes' = " << header.payloadBytes << " exceeds the file list limit of "
+         << maxTextBytes << " bytes";
+    throw ProtocolError(text.str());
+  }
+  std::string files(reinterpret_cast<const char*>(data + headerBytes), static_cast<std::size_t>(header.payloadBytes));
+  const std::string problem = fileListProblem(files);
+  if (!problem.empty()) throw ProtocolError(describe(header) + ": field 'files' " + problem);
+  return files;
 }
 
 } // namespace railcosim::protocol

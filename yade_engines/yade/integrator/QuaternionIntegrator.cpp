@@ -1,11 +1,15 @@
 // QuaternionIntegrator: gathers YADE body state, calls the rotation/translation kernels, scatters the result.
 #include "QuaternionIntegrator.hpp"
 
+#include "railcosim/StateStream.hpp"
+
 #include <core/Clump.hpp>
 #include <core/Scene.hpp>
 
+#include <cstring>
 #include <sstream>
 #include <stdexcept>
+#include <type_traits>
 
 namespace yade {
 
@@ -146,6 +150,56 @@ void QuaternionIntegrator::action() {
 #ifdef YADE_OPENMP
   for (const Real& threadMax : threadMaxVelocitySq) maxVelocitySq = math::max(maxVelocitySq, threadMax);
 #endif
+}
+
+// The kernels' rotation state is plain doubles; it is stored as its bytes, which this build reads back as written.
+static_assert(std::is_trivially_copyable<railcosim::kernels::RotationState>::value,
+              "the rotation state must be plain data to be checkpointed byte for byte");
+
+boost::python::object QuaternionIntegrator::restartState() const {
+  std::ostringstream out;
+  railcosim::StateWriter state(out);
+  state.section("quaternion integrator");
+  state.u64(slots.size());
+  for (const BodySlot& slot : slots) {
+    state.flag(slot.predicted);
+    state.real(slot.timeStep);
+    std::string rotation(sizeof(slot.rotation), '\0');
+    std::memcpy(&rotation[0], &slot.rotation, sizeof(slot.rotation));
+    state.bytes(rotation);
+    const Quaternionr& q = slot.writtenOri;
+    state.reals({slot.writtenPos[0], slot.writtenPos[1], slot.writtenPos[2], slot.writtenVel[0], slot.writtenVel[1],
+                 slot.writtenVel[2], slot.writtenAngVel[0], slot.writtenAngVel[1], slot.writtenAngVel[2], q.w(), q.x(),
+                 q.y(), q.z()});
+  }
+  const std::string bytes = out.str();
+  return boost::python::object(boost::python::handle<>(PyBytes_FromStringAndSize(bytes.data(), bytes.size())));
+}
+
+void QuaternionIntegrator::restoreRestartState(const boost::python::object& saved) {
+  char* data = nullptr;
+  Py_ssize_t size = 0;
+  if (!PyBytes_Check(saved.ptr()) || PyBytes_AsStringAndSize(saved.ptr(), &data, &size) != 0)
+    throw std::invalid_argument("QuaternionIntegrator.restoreRestartState: the state must be bytes");
+  std::istringstream in(std::string(data, static_cast<size_t>(size)));
+  railcosim::StateReader state(in, "of QuaternionIntegrator");
+  state.section("quaternion integrator");
+  std::vector<BodySlot> restored(state.u64());
+  for (BodySlot& slot : restored) {
+    slot.predicted = state.flag();
+    slot.timeStep = state.real();
+    const std::string rotation = state.bytes();
+    if (rotation.size() != sizeof(slot.rotation))
+      state.fail("a rotation state of " + std::to_string(rotation.size()) + " bytes");
+    std::memcpy(&slot.rotation, rotation.data(), sizeof(slot.rotation));
+    const std::vector<double> v = state.reals();
+    if (v.size() != 13) state.fail("13 values per body expected");
+    slot.writtenPos = Vector3r(v[0], v[1], v[2]);
+    slot.writtenVel = Vector3r(v[3], v[4], v[5]);
+    slot.writtenAngVel = Vector3r(v[6], v[7], v[8]);
+    slot.writtenOri = Quaternionr(v[9], v[10], v[11], v[12]);
+  }
+  slots = std::move(restored);
 }
 
 } // namespace yade

@@ -44,11 +44,19 @@ private:
   void integrateBody(const shared_ptr<Body>& b, railcosim::kernels::RotationScheme rotationScheme);
 
 public:
+  /// Restart checkpoints (railcosim.dem.CoupledDem): the per-body half-step data above, which no attribute holds;
+  /// without it the first step after a restart would start every body afresh instead of correcting its last step.
+  boost::python::object restartState() const;
+  void restoreRestartState(const boost::python::object& state);
   // clang-format off
-	YADE_CLASS_BASE_DOC_ATTRS_CTOR(QuaternionIntegrator,NewtonIntegrator,"Integrates the motion of spheres, clumps (sphere clusters) and facets like :yref:`NewtonIntegrator`, with velocity Verlet for translation and, for :yref:`aspherical<Body.aspherical>` bodies with free rotation, the Zhao–van Wachem quaternion predictor–corrector (default), quaternion RK4 with angular momentum as state, or the direct scheme (comparison only) — Irazábal 2017, §5.3.2. Bodies with any rotational DOF blocked, and non-aspherical bodies, rotate with the velocity-Verlet update of spheres. Clump forces and torques are assembled from members (eqs. 5.9–5.10), member torques (e.g. rolling friction) included. Attributes inherited from NewtonIntegrator other than gravity, damping, mask and kinSplit are not used.",
+	YADE_CLASS_BASE_DOC_ATTRS_CTOR_PY(QuaternionIntegrator,NewtonIntegrator,"Integrates the motion of spheres, clumps (sphere clusters) and facets like :yref:`NewtonIntegrator`, with velocity Verlet for translation and, for :yref:`aspherical<Body.aspherical>` bodies with free rotation, the Zhao–van Wachem quaternion predictor–corrector (default), quaternion RK4 with angular momentum as state, or the direct scheme (comparison only) — Irazábal 2017, §5.3.2. Bodies with any rotational DOF blocked, and non-aspherical bodies, rotate with the velocity-Verlet update of spheres. Clump forces and torques are assembled from members (eqs. 5.9–5.10), member torques (e.g. rolling friction) included. Attributes inherited from NewtonIntegrator other than gravity, damping, mask and kinSplit are not used.",
 		((std::string,scheme,"zhaoVanWachem",,"Rotation scheme for aspherical bodies: ``'zhaoVanWachem'`` (recommended), ``'rk4'`` or ``'direct'`` (inaccurate; for comparison only)."))
 		,
 		/*ctor*/ damping = 0;
+		,
+		/*py*/
+		.def("restartState", &QuaternionIntegrator::restartState, "The per-body half-step state (bytes) that no attribute holds, for a restart checkpoint.")
+		.def("restoreRestartState", &QuaternionIntegrator::restoreRestartState, (py::arg("state")), "Put back what restartState() returned, in a rebuilt scene resumed from a restart checkpoint.")
 	);
   // clang-format on
 };

@@ -43,16 +43,13 @@ poly::Material polyhedraMaterial(const Material& material, const std::string& ow
   railcosim::kernels::ContactMaterial m = contactMaterialOf(material, "PolyhedraGpuEngine: " + owner);
   if (!dynamic_cast<const BallastMat*>(&material)) m.restitution = restitution;
   railcosim::kernels::validate(m, "PolyhedraGpuEngine: " + owner);
-  poly::Material result;
-  result.youngModulus = m.youngModulus;
-  result.poissonRatio = m.poissonRatio;
-  result.restitution = m.restitution;
-  result.friction = m.frictionCoefficient;
-  result.roughnessRms = m.roughnessRms;
-  result.fractalDimension = m.fractalDimension;
-  result.plasticUnloading = m.plasticUnloading;
-  result.frictionExponent = m.frictionExponent;
-  result.maxContactStress = m.maxContactStress;
+  return poly::materialOf(m);
+}
+
+// {body id: the stone's 3 values of `perStone`} for Python.
+boost::python::dict byBodyId(const std::vector<Body::id_t>& ids, const std::vector<double>& perStone) {
+  boost::python::dict result;
+  for (size_t i = 0; i < ids.size(); ++i) result[ids[i]] = toVector3r(&perStone[3 * i]);
   return result;
 }
 } // namespace
@@ -147,6 +144,7 @@ void PolyhedraGpuEngine::initialize() {
   parameters.stone = polyhedraMaterial(*stoneMaterial, "the stones' material", restitution);
   parameters.wall = parameters.stone;
   parameters.rebuildInterval = rebuildInterval;
+  parameters.neighbourSkin = neighbourSkin;
   parameters.adaptiveRebuild = adaptiveRebuild;
   parameters.maxNeighbours = maxNeighbours;
   parameters.maxWallNeighbours = maxWallNeighbours;
@@ -372,18 +370,12 @@ boost::python::list PolyhedraGpuEngine::contactsPy() {
 
 boost::python::dict PolyhedraGpuEngine::stoneForcesPy() {
   requireSystem("stoneForces");
-  boost::python::dict result;
-  const std::vector<double> f = system->forces();
-  for (size_t i = 0; i < stoneIds.size(); ++i) result[stoneIds[i]] = toVector3r(&f[3 * i]);
-  return result;
+  return byBodyId(stoneIds, system->forces());
 }
 
 boost::python::dict PolyhedraGpuEngine::stoneTorquesPy() {
   requireSystem("stoneTorques");
-  boost::python::dict result;
-  const std::vector<double> t = system->torques();
-  for (size_t i = 0; i < stoneIds.size(); ++i) result[stoneIds[i]] = toVector3r(&t[3 * i]);
-  return result;
+  return byBodyId(stoneIds, system->torques());
 }
 
 void PolyhedraGpuEngine::writeStatePy(const std::string& path) {
@@ -407,6 +399,22 @@ void PolyhedraGpuEngine::readStatePy(const std::string& path) {
     throw std::runtime_error(std::string("PolyhedraGpuEngine.readState('") + path + "'): " + e.what());
   }
   syncBack();
+}
+
+// Restart checkpoints: the system's state streams (writeState/readState) exist, but a coupled run's window state
+// (FemCouplingEngine's linear surface motion and window forces with contactModel 'polyhedra') is not yet part of the
+// checkpoint; until a resumed polyhedra run is shown to repeat the uninterrupted one, a run with this engine refuses
+// to checkpoint rather than resume from a state it might not restore exactly.
+boost::python::object PolyhedraGpuEngine::restartState() const {
+  throw std::runtime_error(
+      "PolyhedraGpuEngine: restart checkpoints are not supported yet (the coupled polyhedra window state is not "
+      "checkpointed); run without --checkpoint-every / --resume");
+}
+
+void PolyhedraGpuEngine::restoreRestartState(const boost::python::object&) {
+  throw std::runtime_error(
+      "PolyhedraGpuEngine: restart checkpoints are not supported yet (the coupled polyhedra window state is not "
+      "checkpointed)");
 }
 
 } // namespace yade

@@ -36,6 +36,10 @@ public:
   void setWallVelocity(const std::vector<Body::id_t>& facets, const Vector3r& velocity);
   Vector3r wallForce(const std::vector<Body::id_t>& facets) const;
   Real criticalTimeStep(Real normalForce, Real impactVelocity);
+  /// Restart checkpoints (railcosim.dem.CoupledDem): the polyhedra system's state (stones, contact histories,
+  /// neighbour lists), which no attribute holds. Refused for now (see the .cpp).
+  boost::python::object restartState() const;
+  void restoreRestartState(const boost::python::object& state);
   virtual ~PolyhedraGpuEngine();
 
   // The coupled surface (C++ side of FemCouplingEngine with contactModel='polyhedra').
@@ -93,6 +97,7 @@ public:
 		((Vector3r, gravity, Vector3r(0, 0, -9.81), , "Gravity acceleration [m/s^2]."))
 		((string, backend, "automatic", , "``automatic`` (GPU when usable, else CPU), ``cpu`` or ``cuda``."))
 		((int, rebuildInterval, 10, , "Steps between neighbour-list rebuilds (each batch starts with one)."))
+		((Real, neighbourSkin, -1, , "Verlet skin of the neighbour lists [m]; < 0: a fifth of the mean dilation radius. Over one rebuild interval no two stones may close more than half of it (a warning reports it): fast stones need a larger skin or a shorter interval."))
 		((bool, adaptiveRebuild, true, , "Skip a due rebuild while no stone can outgrow the lists: largest displacement since the last rebuild plus twice the fastest stone's travel over the next interval below half the skin. Never skipped while the surface moves."))
 		((int, maxNeighbours, 24, , "Candidate partner stones stored per stone [-] (raise it if a step reports an overflow)."))
 		((int, maxWallNeighbours, 8, , "Candidate wall or surface triangles stored per stone [-]."))
@@ -116,6 +121,8 @@ public:
 		.def("stoneTorques", &PolyhedraGpuEngine::stoneTorquesPy, "Contact torque on each stone about its centre of mass at the last force evaluation: dict {body id: Vector3} [N m].")
 		.def("writeState", &PolyhedraGpuEngine::writeStatePy, (py::arg("path")), "Write the polyhedra system's whole state (stones, contact histories, surface, time) to the file *path* (binary; PolyhedraSystem::writeState).")
 		.def("readState", &PolyhedraGpuEngine::readStatePy, (py::arg("path")), "Read a state written by writeState into this engine's system (built the same way: same stones, shapes and walls) and sync the YADE bodies to it; a file that does not fit is refused with the reason.")
+		.def("restartState", &PolyhedraGpuEngine::restartState, "The polyhedra system's state (bytes) for a restart checkpoint. Not yet available: raises.")
+		.def("restoreRestartState", &PolyhedraGpuEngine::restoreRestartState, (py::arg("state")), "Put back what restartState() returned. Not yet available: raises.")
 	);
   // clang-format on
   DECLARE_LOGGER;

@@ -86,12 +86,15 @@ class SleeperOnBallast(Case):
                 "monitor": f"{scene['centre'][0]},{y0 + width / 2},{seat_height}",
                 "probes": ",".join(f"{x},{y},{z}" for x, y, z in probes), **scene["load_pattern"]}
 
+    def duration_s(self, p):
+        """The load pattern's end and the rest after it."""
+        return sc.load_run_duration(p)
+
     def fem_command(self, p, endpoint, out):
         """The sleeper at the height the bed preparation seated it (bed.json), for the pattern's duration."""
         with open(os.path.join(out, "bed.json")) as f:
             seat = json.load(f)["seat_height_m"]
-        duration = sc.pattern_phase_ends(sc.load_pattern(p))["patternEnd"] + p["settle_after_s"]
-        return solvers.coupled_fem_command({**p, "duration_s": duration}, endpoint, out, solvers.box_solver(),
+        return solvers.coupled_fem_command({**p, "duration_s": self.duration_s(p)}, endpoint, out, solvers.box_solver(),
                                            self.sleeper_options(p, seat))
 
     def postprocess(self, p, out):

@@ -22,8 +22,7 @@ scene = sc.build(p)
 with open(os.path.join(dem.out, "bed.json")) as f:
     bed_record = json.load(f)
 bed, attrs = bedfile.load(bed_record["path"])
-pattern_end = sc.pattern_phase_ends(scene["load_pattern"])["patternEnd"]
-dem.parameters["duration_s"] = pattern_end + p["settle_after_s"]  # the windows of the pattern (and any rest after it)
+dem.parameters["duration_s"] = sc.load_run_duration(p)  # the windows of the pattern (and any rest after it)
 
 # 1. Materials: ballast, smooth box walls, and the sleeper's surface (timber; its elasticity is FreeFEM's, this sets
 #    the contact: timber's E and nu, the ballast's friction and restitution).
@@ -90,12 +89,9 @@ def sensor_top_forces():
     return forces
 
 
-window = {"count": 0, "sensors": np.full(len(sensors), np.nan)}
-
-
 def record():
-    window["count"] += 1
-    readings = sensor_top_forces() if window["count"] % SENSOR_EVERY == 0 else np.full(len(sensors), np.nan)
+    # Counted by the coupling engine's window (restored with a restart checkpoint), not by this script.
+    readings = sensor_top_forces() if coupling.window % SENSOR_EVERY == 0 else np.full(len(sensors), np.nan)
     return dict(interface_force=coupling.totalForce, surface_force=poly.surfaceForce, sensor_top_force=readings,
                 sensor_height=[O.bodies[b].state.pos[2] for b in sensors])
 

@@ -371,6 +371,11 @@ def load_pattern(p):
             "cyclicFrequency": p["cyclic_frequency_hz"], "cycles": p["cycles"], "timeScale": p["time_scale"]}
 
 
+def load_run_duration(p):
+    """Simulated time of the coupled load run [s]: the pattern's end and the rest after it (settle_after_s)."""
+    return pattern_phase_ends(load_pattern(p))["patternEnd"] + p["settle_after_s"]
+
+
 def pattern_phase_ends(pattern):
     """Ends of the pattern's phases in simulated seconds, as loadPatternPhaseEnds of load_pattern.idp computes
     them (the run's fem_summary.json holds FreeFEM's own values; the case checks that they agree):

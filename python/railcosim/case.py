@@ -1,7 +1,8 @@
 """The contract between a case folder and the runner (`railcosim run`): the hooks of a case, and their loading.
 
 A case is a folder cases/NAME with
-  case.toml   name, expected_wall_s and the tables [parameters], [coupling], [fem], [output], [limits], [smoke]
+  case.toml   name, expected_wall_s, restart_test_timeout_s (CTest limit of case_NAME_restart, default 90 s),
+              the tables [parameters], [coupling], [fem], [output], [limits], [smoke]
               (railcosim/parameters.py: shared defaults, ranges, --set and --smoke)
   case.py     one subclass of Case below: only what is particular to the case
   dem.py      the YADE participant, a numbered story around railcosim.dem.CoupledDem
@@ -50,6 +51,11 @@ class Case:
     def check_parameters(self, p):
         """Problems the [limits] rules cannot express (e.g. a DEM step above the critical one), one message each."""
         return []
+
+    def duration_s(self, p):
+        """Simulated time of the coupled run [s]: the duration_s parameter, unless the case derives it (a load
+        pattern's end, say); tools that pace a run by its length (restart checkpoints in tests) ask this."""
+        return p["duration_s"]
 
     def fem_command(self, p, endpoint, out):
         """The FreeFEM participant: fem_script in coupled mode with the [coupling]/[output] options and fem_arguments."""

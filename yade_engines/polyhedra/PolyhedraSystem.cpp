@@ -988,6 +988,9 @@ void PolyhedraSystem::readState(std::istream& in) {
     using Record = typename std::decay_t<decltype(array)>::value_type;
     array = readArray<Record>(in, array.size(), std::string("the array '") + name + "'");
   });
+  // A kept snapshot speaks this system's storage order; the order is fixed from the first step on, so a state of the
+  // same system (a restart, or a state written between a snapshot and its restore) leaves the snapshot valid.
+  const bool sameOrder = order == m.userOf;
   d = std::move(incoming);
   m.userOf = order;
   for (std::size_t k = 0; k < n; ++k) m.storedOf[order[k]] = static_cast<std::int32_t>(k);
@@ -995,7 +998,7 @@ void PolyhedraSystem::readState(std::istream& in) {
   m.lastSteps = static_cast<int>(lastSteps);
   d.forcesValid = forcesValid != 0;
   m.statistics = statistics;
-  m.snapshot.saved = false; // a kept snapshot may speak another storage order
+  if (!sameOrder) m.snapshot.saved = false;
   m.backend->upload(d);
   m.hostCurrent = true;
 }

@@ -204,7 +204,8 @@ public:
   /// Replaces the state with one written by writeState of a system built the same way (same shapes, stones in
   /// the same addStone order with the same shapes, same walls, same list capacities and law history; the
   /// Parameters may differ, e.g. a new time step). Throws Error naming the mismatch, a wrong version or a
-  /// truncated stream, leaving the system as it was.
+  /// truncated stream, leaving the system as it was. A kept snapshot stays kept when the stream has this system's
+  /// storage order (a state of the same run), and is dropped otherwise.
   void readState(std::istream& in);
 
   struct Implementation;

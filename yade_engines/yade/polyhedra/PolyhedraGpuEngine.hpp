@@ -37,8 +37,8 @@ public:
   Vector3r wallForce(const std::vector<Body::id_t>& facets) const;
   Real criticalTimeStep(Real normalForce, Real impactVelocity);
   /// Restart checkpoints (railcosim.dem.CoupledDem): the polyhedra system's state (stones, contact histories,
-  /// neighbour lists), which no attribute holds. Refused for now (see the .cpp).
-  boost::python::object restartState() const;
+  /// neighbour lists) and its kept snapshot, which no attribute holds.
+  boost::python::object restartState();
   void restoreRestartState(const boost::python::object& state);
   virtual ~PolyhedraGpuEngine();
 
@@ -121,8 +121,8 @@ public:
 		.def("stoneTorques", &PolyhedraGpuEngine::stoneTorquesPy, "Contact torque on each stone about its centre of mass at the last force evaluation: dict {body id: Vector3} [N m].")
 		.def("writeState", &PolyhedraGpuEngine::writeStatePy, (py::arg("path")), "Write the polyhedra system's whole state (stones, contact histories, surface, time) to the file *path* (binary; PolyhedraSystem::writeState).")
 		.def("readState", &PolyhedraGpuEngine::readStatePy, (py::arg("path")), "Read a state written by writeState into this engine's system (built the same way: same stones, shapes and walls) and sync the YADE bodies to it; a file that does not fit is refused with the reason.")
-		.def("restartState", &PolyhedraGpuEngine::restartState, "The polyhedra system's state (bytes) for a restart checkpoint. Not yet available: raises.")
-		.def("restoreRestartState", &PolyhedraGpuEngine::restoreRestartState, (py::arg("state")), "Put back what restartState() returned. Not yet available: raises.")
+		.def("restartState", &PolyhedraGpuEngine::restartState, "The polyhedra system's state (bytes) for a restart checkpoint: stones, contact histories, neighbour lists, the snapshot an implicit window keeps, moving facets.")
+		.def("restoreRestartState", &PolyhedraGpuEngine::restoreRestartState, (py::arg("state")), "Put back what restartState() returned, in a scene rebuilt the same way (the stream's counts and shapes are checked; a state that does not fit is refused with the reason).")
 	);
   // clang-format on
   DECLARE_LOGGER;

@@ -371,7 +371,10 @@ class Run:
                 self.guard.set_time_limit(self.time_limit)
                 ipc_folder = make_ipc_folder()
                 self._write_parameters()
-            self._run_coupled(ipc_folder, start)
+            if not self._replayed_side():
+                self._run_preparation()
+            if self.status == "ok":
+                self._run_coupled(ipc_folder, time.monotonic())
             # A replay checks one solver against a recording: the other's outputs, which the references
             # and the post-processing read, do not exist.
             if self.status == "ok" and not self._replayed_side():
@@ -513,6 +516,25 @@ class Run:
             self.summary["warning"] = f"dem_dt={asked:g} was asked, the DEM ran with {resolved['dem_dt']:g}"
         with self.guard.deferred():
             self._write_parameters(resolved)
+
+    def _run_preparation(self):
+        """The case's preparation runs (e.g. a particle bed the coupled run starts from), one after the other, their
+        output echoed; their wall times go to the summary."""
+        env = self._environment()
+        self.stage = "preparation"
+        for name, argv in self.case.preparation_runs(self.params, self.partial):
+            self.stage = f"preparation run '{name}'"
+            say(f"[run] preparation run '{name}'")
+            started = time.monotonic()
+            if not self._start(self.references, name, argv, env):
+                return
+            solver = self.references[-1]
+            code = wait_reference(solver, self.guard)
+            self.summary.setdefault("preparation", {})[name] = {"wall_time_s": round(time.monotonic() - started, 3)}
+            if code != 0:
+                self.status = "failed"
+                self.error = f"preparation run '{name}' failed (exit {solver.code}; see {solver.log_name})"
+                return
 
     def _run_references(self):
         env = self._environment()

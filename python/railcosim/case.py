@@ -1,7 +1,8 @@
 """The contract between a case folder and the runner (`railcosim run`): the hooks of a case, and their loading.
 
 A case is a folder cases/NAME with
-  case.toml   name, expected_wall_s and the tables [parameters], [coupling], [fem], [output], [limits], [smoke]
+  case.toml   name, expected_wall_s, restart_test_timeout_s (CTest limit of case_NAME_restart, default 90 s),
+              the tables [parameters], [coupling], [fem], [output], [limits], [smoke]
               (railcosim/parameters.py: shared defaults, ranges, --set and --smoke)
   case.py     one subclass of Case below: only what is particular to the case
   dem.py      the YADE participant, a numbered story around railcosim.dem.CoupledDem
@@ -10,6 +11,7 @@ A case is a folder cases/NAME with
 The runner calls the hooks in this order; p is the resolved parameters ({name: value} over all tables, plus
 `smoke` and `case_dir`), out the run's results folder (the solvers run in it), endpoint the run's bridge address:
   check_parameters(p) -> [message]          before anything starts: rules the [limits] table cannot say
+  preparation_runs(p, out) -> [(name, argv)] runs the coupled run starts from (e.g. a particle bed), one after the other
   fem_command(p, endpoint, out) -> argv     the FreeFEM participant  } started together,
   dem_command(p, endpoint, out) -> argv     the YADE participant     } watched until both exit
   reference_runs(p, out) -> [(name, argv)]  solver-only runs to compare with, one after the other
@@ -50,6 +52,11 @@ class Case:
         """Problems the [limits] rules cannot express (e.g. a DEM step above the critical one), one message each."""
         return []
 
+    def duration_s(self, p):
+        """Simulated time of the coupled run [s]: the duration_s parameter, unless the case derives it (a load
+        pattern's end, say); tools that pace a run by its length (restart checkpoints in tests) ask this."""
+        return p["duration_s"]
+
     def fem_command(self, p, endpoint, out):
         """The FreeFEM participant: fem_script in coupled mode with the [coupling]/[output] options and fem_arguments."""
         return solvers.coupled_fem_command(p, endpoint, out, solvers.fem_script(self.fem_script), self.fem_arguments(p))
@@ -57,6 +64,11 @@ class Case:
     def dem_command(self, p, endpoint, out):
         """The YADE participant: the case folder's dem.py."""
         return solvers.dem_command(p, endpoint, out)
+
+    def preparation_runs(self, p, out):
+        """Runs before the coupled one, [(name, argv)], in out, one after the other, their output shown; each must
+        succeed before the solvers start (fem_command and dem_command may read what they leave in out)."""
+        return []
 
     def reference_runs(self, p, out):
         """Solver-only runs after the coupled one, [(name, argv)]; each must succeed before postprocess."""

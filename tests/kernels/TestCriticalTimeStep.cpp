@@ -64,6 +64,21 @@ BOOST_AUTO_TEST_CASE(hertz_maximum_overlap_matches_a_simulated_impact) {
   BOOST_TEST(hertzCriticalTimeStep(p, speed) == expected, boost::test_tools::tolerance(1e-14));
 }
 
+BOOST_AUTO_TEST_CASE(hertz_step_at_a_force_is_the_step_at_the_overlap_carrying_it) {
+  const HertzMindlinParams p{effectiveYoungModulus(1e10, 0.27, 1e10, 0.27), 1e9, 0.004, 0.04, 0.4};
+  // The overlap inverts the elastic force law ...
+  for (const double force : {1.0, 250.0, 5000.0}) {
+    BOOST_TEST(hertzElasticNormalForce(p, hertzOverlapAtForce(p, force)) == force, boost::test_tools::tolerance(1e-12));
+  }
+  // ... and an impact whose peak overlap carries F gives the same step as the contact held at F.
+  const double overlap = hertzMaximumOverlap(p, 2.0);
+  BOOST_TEST(hertzCriticalTimeStepAtForce(p, hertzElasticNormalForce(p, overlap)) == hertzCriticalTimeStep(p, 2.0),
+             boost::test_tools::tolerance(1e-12));
+  // Hertz stiffness grows as F^(1/3): 8x the force, half the squared step.
+  const double ratio = hertzCriticalTimeStepAtForce(p, 8000.0) / hertzCriticalTimeStepAtForce(p, 1000.0);
+  BOOST_TEST(ratio * ratio == 0.5, boost::test_tools::tolerance(1e-12));
+}
+
 BOOST_AUTO_TEST_CASE(rayleigh_step_for_the_thesis_rolling_benchmark_material) {
   // Irazábal 2017 §3.5: for ρ = 1056 kg/m³, E = 4e7 Pa, ν = 0.49, T_R ≈ 0.0291 R s (3 digits: 0.2 %).
   const double radius = 0.1;

@@ -90,8 +90,8 @@ def main():
     if args.checkpoint_every is None:
         # The case's own duration, as the runner resolves it for these options (--smoke, --set).
         sets = [options[k + 1] for k, option in enumerate(options[:-1]) if option == "--set"]
-        config, _ = load_case(os.path.abspath(args.case))
-        args.checkpoint_every = parameters.resolve_parameters(config, "--smoke" in options, sets)["duration_s"] / 4
+        config, case = load_case(os.path.abspath(args.case))
+        args.checkpoint_every = case.duration_s(parameters.resolve_parameters(config, "--smoke" in options, sets)) / 4
     shutil.rmtree(args.work, ignore_errors=True)
     os.makedirs(args.work)
     reference = args.reference

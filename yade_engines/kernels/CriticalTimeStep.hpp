@@ -31,17 +31,32 @@ RAILCOSIM_HOST_DEVICE inline double hertzMaximumOverlap(const HertzMindlinParams
                   0.4);
 }
 
-// Hertz–Mindlin contact step for the largest expected impact speed: the stiffest mode at δ_max is either
-// the normal spring k_n or the tangential spring k_t acting through translation AND rotation of solid
-// spheres (effective inverse mass 1/m + R²/I = 3.5/m, so 3.5 k_t). Take 0.2–0.5 of this value to leave
-// room for several simultaneous contacts per particle. [s]
-RAILCOSIM_HOST_DEVICE inline double hertzCriticalTimeStep(const HertzMindlinParams& p, double impactVelocity) {
-  const double overlap = hertzMaximumOverlap(p, impactVelocity);
+// Overlap of a Hertz contact carrying the elastic normal force F: δ = (3F / (4 E* sqrt(R*)))^{2/3), the inverse
+// of hertzElasticNormalForce (Johnson 1985, eq. 4.23). [m]
+RAILCOSIM_HOST_DEVICE inline double hertzOverlapAtForce(const HertzMindlinParams& p, double normalForce) {
+  return std::pow(3.0 * normalForce / (4.0 * p.effectiveYoungModulus * std::sqrt(p.effectiveRadius)), 2.0 / 3.0);
+}
+
+// Hertz–Mindlin contact step at overlap δ: the stiffest mode is either the normal spring k_n or the tangential
+// spring k_t acting through translation AND rotation of solid spheres (effective inverse mass 1/m + R²/I = 3.5/m,
+// so 3.5 k_t). [s]
+RAILCOSIM_HOST_DEVICE inline double hertzCriticalTimeStepAtOverlap(const HertzMindlinParams& p, double overlap) {
   const double normalStiffness = hertzNormalStiffness(p, overlap);
   const double rotationalTangentialStiffness = 3.5 * mindlinTangentialStiffness(p, overlap);
   const double stiffness =
       normalStiffness > rotationalTangentialStiffness ? normalStiffness : rotationalTangentialStiffness;
   return springCriticalTimeStep(p.effectiveMass, stiffness, p.dampingRatio);
+}
+
+// Hertz–Mindlin contact step for the largest expected impact speed (at δ_max of that impact). Take 0.2–0.5 of
+// this value to leave room for several simultaneous contacts per particle. [s]
+RAILCOSIM_HOST_DEVICE inline double hertzCriticalTimeStep(const HertzMindlinParams& p, double impactVelocity) {
+  return hertzCriticalTimeStepAtOverlap(p, hertzMaximumOverlap(p, impactVelocity));
+}
+
+// The same for a contact held at the normal force F (a loaded bed: the largest force a contact carries). [s]
+RAILCOSIM_HOST_DEVICE inline double hertzCriticalTimeStepAtForce(const HertzMindlinParams& p, double normalForce) {
+  return hertzCriticalTimeStepAtOverlap(p, hertzOverlapAtForce(p, normalForce));
 }
 
 } // namespace railcosim::kernels

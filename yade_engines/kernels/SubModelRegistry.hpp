@@ -228,8 +228,8 @@ struct RayleighTimeStepModel {
 struct ContactOscillatorTimeStepModel {
   static constexpr SubModelInfo info{"contact_oscillator",
                                      SubModelKind::TimeStep,
-                                     "CriticalTimeStep.hpp: springCriticalTimeStep, hertzCriticalTimeStep",
-                                     "m* [kg], k [N/m], gamma [-], impact speed [m/s]",
+                                     "CriticalTimeStep.hpp: springCriticalTimeStep, hertzCriticalTimeStep, hertzCriticalTimeStepAtForce",
+                                     "m* [kg], k [N/m], gamma [-], impact speed [m/s] or contact force [N]",
                                      "none",
                                      "Belytschko, Liu & Moran 2000 (central-difference stability with damping)",
                                      "TestCriticalTimeStep.cpp"};

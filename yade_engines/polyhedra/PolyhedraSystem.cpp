@@ -13,6 +13,7 @@
 
 #include <Eigen/Eigenvalues>
 
+#include "kernels/CriticalTimeStep.hpp"
 #include "kernels/MathConstants.hpp"
 #include "polyhedra/PolyhedraBackend.hpp"
 #include "railcosim/Error.hpp"
@@ -704,6 +705,28 @@ Backend PolyhedraSystem::activeBackend() const { return implementation_->active;
 const std::string& PolyhedraSystem::backendReason() const { return implementation_->reason; }
 const StepStatistics& PolyhedraSystem::lastStatistics() const { return implementation_->statistics; }
 
+double PolyhedraSystem::criticalTimeStep(double normalForce, double impactVelocity) const {
+  const HostData& d = implementation_->data;
+  if (d.shapes.empty()) fail("criticalTimeStep", "no shapes: add them first");
+  if (!(normalForce > 0.0) && !(impactVelocity > 0.0))
+    fail("criticalTimeStep", "give a contact force [N] or an impact speed [m/s] > 0");
+  double step = INFINITY;
+  for (const ShapeData& shape : d.shapes) {
+    std::vector<kernels::ContactLaw> laws{d.stoneLaw};
+    kernels::setContactGeometry(laws[0], 0.5 * shape.dilationRadius, 0.5 * shape.mass);
+    for (int k = 0; k < d.wallLawCount; ++k) {
+      laws.push_back(d.wallLaws[k]);
+      kernels::setContactGeometry(laws.back(), shape.dilationRadius, shape.mass);
+    }
+    for (const kernels::ContactLaw& law : laws) {
+      const kernels::HertzMindlinParams& p = law.params.hertzMindlin;
+      if (normalForce > 0.0) step = std::min(step, kernels::hertzCriticalTimeStepAtForce(p, normalForce));
+      if (impactVelocity > 0.0) step = std::min(step, kernels::hertzCriticalTimeStep(p, impactVelocity));
+    }
+  }
+  return step;
+}
+
 std::vector<double> PolyhedraSystem::positions() const {
   implementation_->sync();
   return implementation_->inUserOrder(implementation_->data.position, 3);
@@ -965,6 +988,9 @@ void PolyhedraSystem::readState(std::istream& in) {
     using Record = typename std::decay_t<decltype(array)>::value_type;
     array = readArray<Record>(in, array.size(), std::string("the array '") + name + "'");
   });
+  // A kept snapshot speaks this system's storage order; the order is fixed from the first step on, so a state of the
+  // same system (a restart, or a state written between a snapshot and its restore) leaves the snapshot valid.
+  const bool sameOrder = order == m.userOf;
   d = std::move(incoming);
   m.userOf = order;
   for (std::size_t k = 0; k < n; ++k) m.storedOf[order[k]] = static_cast<std::int32_t>(k);
@@ -972,7 +998,7 @@ void PolyhedraSystem::readState(std::istream& in) {
   m.lastSteps = static_cast<int>(lastSteps);
   d.forcesValid = forcesValid != 0;
   m.statistics = statistics;
-  m.snapshot.saved = false; // a kept snapshot may speak another storage order
+  if (!sameOrder) m.snapshot.saved = false;
   m.backend->upload(d);
   m.hostCurrent = true;
 }

@@ -137,6 +137,12 @@ public:
   /// before the first step.
   void setWallMaterials(const std::vector<Material>& materials, const std::vector<std::int32_t>& materialOfTriangle);
 
+  /// Smallest critical time step over the shape templates [s] (kernels/CriticalTimeStep.hpp, Hertz estimate):
+  /// two equal stones (R* = r_d/2, m* = m/2) and a stone on a wall of each wall material (R* = r_d, m* = m), each for a contact carrying
+  /// `normalForce` [N] (if > 0) and an impact at `impactVelocity` [m/s] (if > 0). The stone's rotation enters as
+  /// the kernel's 3.5 k_t; several contacts per stone and lever arms longer than a sphere's call for 0.2–0.5 of it.
+  double criticalTimeStep(double normalForce, double impactVelocity) const;
+
   /// Changes Δt [s] / gravity [m/s^2] for the following steps (e.g. a coarse packing phase, YADE's O.dt).
   void setTimeStep(double timeStep);
   void setGravity(const std::array<double, 3>& gravity);
@@ -198,7 +204,8 @@ public:
   /// Replaces the state with one written by writeState of a system built the same way (same shapes, stones in
   /// the same addStone order with the same shapes, same walls, same list capacities and law history; the
   /// Parameters may differ, e.g. a new time step). Throws Error naming the mismatch, a wrong version or a
-  /// truncated stream, leaving the system as it was.
+  /// truncated stream, leaving the system as it was. A kept snapshot stays kept when the stream has this system's
+  /// storage order (a state of the same run), and is dropped otherwise.
   void readState(std::istream& in);
 
   struct Implementation;

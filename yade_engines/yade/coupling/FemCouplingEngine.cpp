@@ -470,6 +470,24 @@ void FemCouplingEngine::writeOwnState(std::ostream& out) const {
   std::ostringstream schemeState;
   coupling->writeState(schemeState);
   state.bytes(schemeState.str());
+  // The window's own state: the integrators' slots kept at its start (a repeated implicit pass restores them) and,
+  // with contactModel 'polyhedra', the surface's straight-line motion and the forces of the window stepped last.
+  state.section("window state");
+  state.u64(savedIntegrators.size());
+  for (const auto& [integrator, slots] : savedIntegrators) {
+    state.i64(engineIndex(integrator.get()));
+    QuaternionIntegrator::writeSlots(state, slots);
+  }
+  state.reals(windowStartPositions);
+  state.reals(windowVelocities);
+  state.reals(polyhedraForces);
+  state.real(polyhedraTime);
+}
+
+long FemCouplingEngine::engineIndex(const Engine* engine) const {
+  for (size_t k = 0; k < scene->engines.size(); ++k)
+    if (scene->engines[k].get() == engine) return static_cast<long>(k);
+  throw std::logic_error("FemCouplingEngine: an integrator of the saved window is no longer in O.engines");
 }
 
 void FemCouplingEngine::readOwnState(std::istream& in, const railcosim::InterfaceSetup& setup) {
@@ -530,6 +548,27 @@ void FemCouplingEngine::readOwnState(std::istream& in, const railcosim::Interfac
   settings.implicit.relaxation = implicitRelaxation;
   settings.implicit.aitken = aitken;
   coupling = railcosim::DemCouplingScheme::resume(settings, *participant, setup, schemeState);
+  state.section("window state");
+  savedIntegrators.clear();
+  for (std::uint64_t k = 0, count = state.u64(); k < count; ++k) {
+    const long index = state.i64();
+    std::vector<QuaternionIntegrator::BodySlot> slots = QuaternionIntegrator::readSlots(state);
+    auto integrator = index >= 0 && index < static_cast<long>(scene->engines.size())
+                          ? boost::dynamic_pointer_cast<QuaternionIntegrator>(scene->engines[index])
+                          : shared_ptr<QuaternionIntegrator>();
+    if (!integrator) refuse("O.engines[" + std::to_string(index) + "] is not the saved QuaternionIntegrator");
+    savedIntegrators.emplace_back(integrator, std::move(slots));
+  }
+  windowStartPositions = state.reals();
+  windowVelocities = state.reals();
+  polyhedraForces = state.reals();
+  polyhedraTime = state.real();
+  if (windowStartPositions.size() != windowVelocities.size() || windowStartPositions.size() % 3 != 0 ||
+      (polyhedra && windowStartPositions.size() != 3 * setup.mesh.nodeCount()))
+    refuse("the polyhedra window state does not fit the interface's " + std::to_string(setup.mesh.nodeCount()) +
+           " nodes");
+  nodePositions.resize(windowStartPositions.size() / 3);
+  nodeVelocities.resize(windowStartPositions.size() / 3);
 }
 
 void FemCouplingEngine::action() {

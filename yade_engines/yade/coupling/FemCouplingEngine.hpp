@@ -144,6 +144,7 @@ private:
   void orderRestartCheckpoint();
   void writeOwnState(std::ostream& out) const;
   void readOwnState(std::istream& in, const railcosim::InterfaceSetup& setup);
+  long engineIndex(const Engine* engine) const; // its place in O.engines
 
   std::shared_ptr<railcosim::DemParticipant> participant;
   std::shared_ptr<railcosim::DemCouplingScheme> coupling;  // orders the messages, moves the surface, judges windows

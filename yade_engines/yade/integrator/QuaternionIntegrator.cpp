@@ -156,12 +156,10 @@ void QuaternionIntegrator::action() {
 static_assert(std::is_trivially_copyable<railcosim::kernels::RotationState>::value,
               "the rotation state must be plain data to be checkpointed byte for byte");
 
-boost::python::object QuaternionIntegrator::restartState() const {
-  std::ostringstream out;
-  railcosim::StateWriter state(out);
+void QuaternionIntegrator::writeSlots(railcosim::StateWriter& state, const std::vector<BodySlot>& bodySlots) {
   state.section("quaternion integrator");
-  state.u64(slots.size());
-  for (const BodySlot& slot : slots) {
+  state.u64(bodySlots.size());
+  for (const BodySlot& slot : bodySlots) {
     state.flag(slot.predicted);
     state.real(slot.timeStep);
     std::string rotation(sizeof(slot.rotation), '\0');
@@ -172,17 +170,9 @@ boost::python::object QuaternionIntegrator::restartState() const {
                  slot.writtenVel[2], slot.writtenAngVel[0], slot.writtenAngVel[1], slot.writtenAngVel[2], q.w(), q.x(),
                  q.y(), q.z()});
   }
-  const std::string bytes = out.str();
-  return boost::python::object(boost::python::handle<>(PyBytes_FromStringAndSize(bytes.data(), bytes.size())));
 }
 
-void QuaternionIntegrator::restoreRestartState(const boost::python::object& saved) {
-  char* data = nullptr;
-  Py_ssize_t size = 0;
-  if (!PyBytes_Check(saved.ptr()) || PyBytes_AsStringAndSize(saved.ptr(), &data, &size) != 0)
-    throw std::invalid_argument("QuaternionIntegrator.restoreRestartState: the state must be bytes");
-  std::istringstream in(std::string(data, static_cast<size_t>(size)));
-  railcosim::StateReader state(in, "of QuaternionIntegrator");
+std::vector<QuaternionIntegrator::BodySlot> QuaternionIntegrator::readSlots(railcosim::StateReader& state) {
   state.section("quaternion integrator");
   std::vector<BodySlot> restored(state.u64());
   for (BodySlot& slot : restored) {
@@ -199,7 +189,25 @@ void QuaternionIntegrator::restoreRestartState(const boost::python::object& save
     slot.writtenAngVel = Vector3r(v[6], v[7], v[8]);
     slot.writtenOri = Quaternionr(v[9], v[10], v[11], v[12]);
   }
-  slots = std::move(restored);
+  return restored;
+}
+
+boost::python::object QuaternionIntegrator::restartState() const {
+  std::ostringstream out;
+  railcosim::StateWriter state(out);
+  writeSlots(state, slots);
+  const std::string bytes = out.str();
+  return boost::python::object(boost::python::handle<>(PyBytes_FromStringAndSize(bytes.data(), bytes.size())));
+}
+
+void QuaternionIntegrator::restoreRestartState(const boost::python::object& saved) {
+  char* data = nullptr;
+  Py_ssize_t size = 0;
+  if (!PyBytes_Check(saved.ptr()) || PyBytes_AsStringAndSize(saved.ptr(), &data, &size) != 0)
+    throw std::invalid_argument("QuaternionIntegrator.restoreRestartState: the state must be bytes");
+  std::istringstream in(std::string(data, static_cast<size_t>(size)));
+  railcosim::StateReader state(in, "of QuaternionIntegrator");
+  slots = readSlots(state);
 }
 
 } // namespace yade

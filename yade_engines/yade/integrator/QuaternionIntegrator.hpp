@@ -8,6 +8,11 @@
 
 #include "kernels/RotationIntegrators.hpp"
 
+namespace railcosim {
+class StateWriter;
+class StateReader;
+} // namespace railcosim
+
 namespace yade {
 
 /*! Velocity Verlet for translation and a predict/correct quaternion scheme for rotation (Irazábal 2017 §5.3).
@@ -36,6 +41,9 @@ public:
   /// the step before it, as in an uninterrupted run (restored body states alone would restart each body's scheme).
   std::vector<BodySlot> integrationState() const { return slots; }
   void restoreIntegrationState(std::vector<BodySlot> state) { slots = std::move(state); }
+  /// The slots as a section of a state stream (restart checkpoints; FemCouplingEngine keeps a window's saved slots).
+  static void writeSlots(railcosim::StateWriter& state, const std::vector<BodySlot>& bodySlots);
+  static std::vector<BodySlot> readSlots(railcosim::StateReader& state);
   void action() override;
 
 private:

@@ -1,10 +1,13 @@
 // PolyhedraGpuEngine: hands YADE's polyhedra to the dilated-polyhedra system, advances it in batches, syncs back.
 #include "PolyhedraGpuEngine.hpp"
 
+#include "railcosim/StateStream.hpp"
+
 #include "../contact/BallastContact.hpp"
 #include "polyhedra/PolyhedraShapes.hpp"
 #include "polyhedra/PolyhedraSystem.hpp"
 #include "railcosim/Error.hpp"
+#include "railcosim/StateStream.hpp"
 
 #include <core/Scene.hpp>
 #include <core/State.hpp>
@@ -12,8 +15,10 @@
 #include <pkg/dem/FrictPhys.hpp>
 #include <pkg/dem/NewtonIntegrator.hpp>
 
+#include <algorithm>
 #include <fstream>
 #include <map>
+#include <sstream>
 
 namespace yade {
 
@@ -204,6 +209,7 @@ void PolyhedraGpuEngine::initialize() {
     facetOfTriangle.push_back(b->id);
   }
   facetNodes = coordinates;
+  if (facetNodeVelocities.size() != facetNodes.size()) facetNodeVelocities.assign(facetNodes.size(), 0.0);
   surfaceFirstTriangle = static_cast<int>(facetOfTriangle.size());
   if (hasSurface()) {
     const auto firstNode = static_cast<std::int32_t>(coordinates.size() / 3);
@@ -254,6 +260,40 @@ void PolyhedraGpuEngine::syncBack() {
   }
 }
 
+int PolyhedraGpuEngine::triangleOfFacet(Body::id_t facet) const {
+  const auto found = std::find(facetOfTriangle.begin(), facetOfTriangle.end(), facet);
+  if (found == facetOfTriangle.end())
+    throw std::invalid_argument("PolyhedraGpuEngine: body #" + std::to_string(facet) +
+                                " is not one of the facets handed to the polyhedra system at initialization.");
+  return static_cast<int>(found - facetOfTriangle.begin());
+}
+
+void PolyhedraGpuEngine::setWallVelocity(const std::vector<Body::id_t>& facets, const Vector3r& velocity) {
+  initialize();
+  if (hasSurface())
+    throw std::runtime_error("PolyhedraGpuEngine.setWallVelocity: facets stay fixed while a coupled surface drives the engine.");
+  for (Body::id_t id : facets) {
+    const int triangle = triangleOfFacet(id);
+    for (int node = 3 * triangle; node < 3 * triangle + 3; ++node)
+      for (int k = 0; k < 3; ++k) facetNodeVelocities[3 * node + k] = velocity[k];
+    (*scene->bodies)[id]->state->vel = velocity;
+  }
+  facetsMove = true;
+}
+
+Vector3r PolyhedraGpuEngine::wallForce(const std::vector<Body::id_t>& facets) const {
+  requireSystem("wallForce");
+  const std::vector<double> forces = system->triangleForces();
+  Vector3r total = Vector3r::Zero();
+  for (Body::id_t id : facets) total += toVector3r(&forces[3 * triangleOfFacet(id)]);
+  return total;
+}
+
+Real PolyhedraGpuEngine::criticalTimeStep(Real normalForce, Real impactVelocity) {
+  initialize();
+  return system->criticalTimeStep(normalForce, impactVelocity);
+}
+
 void PolyhedraGpuEngine::action() {
   initialize();
   if (hasSurface()) return; // the coupling engine advances the stones, one window per batch
@@ -261,7 +301,16 @@ void PolyhedraGpuEngine::action() {
   if ((scene->iter + 1) % syncInterval != 0) return;
   system->setTimeStep(scene->dt);
   system->setGravity({gravity[0], gravity[1], gravity[2]});
+  // Moving facets (setWallVelocity): the system moves their nodes at constant velocity through the batch; the engine
+  // keeps the node positions and moves the facet bodies by the same displacement.
+  if (facetsMove) system->setSurfaceKinematics(facetNodes, facetNodeVelocities);
   system->step(syncInterval);
+  if (facetsMove) {
+    const Real duration = syncInterval * scene->dt;
+    for (size_t k = 0; k < facetNodes.size(); ++k) facetNodes[k] += facetNodeVelocities[k] * duration;
+    for (size_t t = 0; t < facetOfTriangle.size(); ++t)
+      (*scene->bodies)[facetOfTriangle[t]]->state->pos += toVector3r(&facetNodeVelocities[9 * t]) * duration;
+  }
   meanContacts = system->lastStatistics().meanActiveContacts;
   syncBack();
 }
@@ -356,20 +405,75 @@ void PolyhedraGpuEngine::readStatePy(const std::string& path) {
   syncBack();
 }
 
-// Restart checkpoints: the system's state streams (writeState/readState) exist, but a coupled run's window state
-// (FemCouplingEngine's linear surface motion and window forces with contactModel 'polyhedra') is not yet part of the
-// checkpoint; until a resumed polyhedra run is shown to repeat the uninterrupted one, a run with this engine refuses
-// to checkpoint rather than resume from a state it might not restore exactly.
-boost::python::object PolyhedraGpuEngine::restartState() const {
-  throw std::runtime_error(
-      "PolyhedraGpuEngine: restart checkpoints are not supported yet (the coupled polyhedra window state is not "
-      "checkpointed); run without --checkpoint-every / --resume");
+// Restart checkpoints: the system's state stream (writeState), and the snapshot an implicit window keeps of its start
+// as a second stream (written by restoring the snapshot, writing, and reading the current state back: readState
+// restores a state exactly). The engine's own moving facets and reported figures go with them. Before the system
+// exists (a script asking whether the engine can checkpoint) the state says only that.
+boost::python::object PolyhedraGpuEngine::restartState() {
+  std::ostringstream out;
+  railcosim::StateWriter state(out);
+  state.section("polyhedra engine");
+  state.flag(bool(system));
+  if (system) {
+    try {
+      std::ostringstream current;
+      system->writeState(current);
+      state.bytes(current.str());
+      state.flag(system->hasSnapshot());
+      if (system->hasSnapshot()) {
+        std::ostringstream snapshot;
+        system->restoreSnapshot();
+        system->writeState(snapshot);
+        std::istringstream back(current.str());
+        system->readState(back);
+        state.bytes(snapshot.str());
+      }
+    } catch (const railcosim::Error& e) {
+      throw std::runtime_error(std::string("PolyhedraGpuEngine.restartState: ") + e.what());
+    }
+    state.reals(facetNodes);
+    state.reals(facetNodeVelocities);
+    state.flag(facetsMove);
+    state.reals({meanContacts, surfaceForce[0], surfaceForce[1], surfaceForce[2]});
+  }
+  const std::string bytes = out.str();
+  return boost::python::object(boost::python::handle<>(PyBytes_FromStringAndSize(bytes.data(), bytes.size())));
 }
 
-void PolyhedraGpuEngine::restoreRestartState(const boost::python::object&) {
-  throw std::runtime_error(
-      "PolyhedraGpuEngine: restart checkpoints are not supported yet (the coupled polyhedra window state is not "
-      "checkpointed)");
+void PolyhedraGpuEngine::restoreRestartState(const boost::python::object& saved) {
+  char* data = nullptr;
+  Py_ssize_t size = 0;
+  if (!PyBytes_Check(saved.ptr()) || PyBytes_AsStringAndSize(saved.ptr(), &data, &size) != 0)
+    throw std::invalid_argument("PolyhedraGpuEngine.restoreRestartState: the state must be bytes");
+  std::istringstream in(std::string(data, static_cast<size_t>(size)));
+  railcosim::StateReader state(in, "of PolyhedraGpuEngine");
+  state.section("polyhedra engine");
+  if (!state.flag()) return; // saved before the system existed: it is built at the first step as then
+  initialize();
+  try {
+    const std::string current = state.bytes();
+    if (state.flag()) { // the snapshot first, kept by the system; then the current state over it
+      std::istringstream snapshot(state.bytes());
+      system->readState(snapshot);
+      system->saveSnapshot();
+    }
+    std::istringstream now(current);
+    system->readState(now);
+  } catch (const railcosim::Error& e) {
+    throw std::runtime_error(std::string("PolyhedraGpuEngine.restoreRestartState: ") + e.what() +
+                             "; resume with the case and parameters of the interrupted run");
+  }
+  std::vector<double> nodes = state.reals(), velocities = state.reals();
+  if (nodes.size() != facetNodes.size() || velocities.size() != facetNodeVelocities.size())
+    state.fail("the facets' nodes differ from this scene's");
+  facetNodes = std::move(nodes);
+  facetNodeVelocities = std::move(velocities);
+  facetsMove = state.flag();
+  const std::vector<double> figures = state.reals();
+  if (figures.size() != 4) state.fail("4 figures expected");
+  meanContacts = figures[0];
+  surfaceForce = Vector3r(figures[1], figures[2], figures[3]);
+  syncBack();
 }
 
 } // namespace yade

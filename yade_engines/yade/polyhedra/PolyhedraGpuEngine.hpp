@@ -33,9 +33,12 @@ public:
   void addStone(Body::id_t id, const std::vector<Vector3r>& vertices, Real stoneDilationRadius = -1);
   /// Volume of the convex hull of `vertices` dilated by `dilationRadius` (Steiner formula, as the engine computes it).
   static Real dilatedVolume(const std::vector<Vector3r>& vertices, Real dilationRadius);
+  void setWallVelocity(const std::vector<Body::id_t>& facets, const Vector3r& velocity);
+  Vector3r wallForce(const std::vector<Body::id_t>& facets) const;
+  Real criticalTimeStep(Real normalForce, Real impactVelocity);
   /// Restart checkpoints (railcosim.dem.CoupledDem): the polyhedra system's state (stones, contact histories,
-  /// neighbour lists), which no attribute holds. Refused for now (see the .cpp).
-  boost::python::object restartState() const;
+  /// neighbour lists) and its kept snapshot, which no attribute holds.
+  boost::python::object restartState();
   void restoreRestartState(const boost::python::object& state);
   virtual ~PolyhedraGpuEngine();
 
@@ -73,8 +76,8 @@ public:
 		"core dilated by :yref:`PolyhedraGpuEngine.dilationRadius`, and identical cores share one shape template. Contacts: gap between the cores (GJK), "
 		"the one contact law of the kernels (docs/contact-models.md) with the dilation curvature: Hertz-Mindlin, or the "
 		"Pohrt-Popov laws for a rough :yref:`BallastMat`, damping from restitution, Coulomb friction (stress-dependent "
-		"between stones where the BallastMat sets it) with tangential history. :yref:`Facet` bodies are fixed "
-		"triangle walls, each meeting the stones with its own material (at most 3 distinct facet materials beside a coupled surface). "
+		"between stones where the BallastMat sets it) with tangential history. :yref:`Facet` bodies are "
+		"triangle walls, fixed unless moved with :yref:`PolyhedraGpuEngine.setWallVelocity`, each meeting the stones with its own material (at most 3 distinct facet materials beside a coupled surface). "
 		"Integration: velocity Verlet and the Zhao-van Wachem quaternion scheme, with :yref:`Omega.dt`. "
 		"The stones are advanced in batches of :yref:`PolyhedraGpuEngine.syncInterval` steps; at the end of each batch "
 		"(when the scene's time has caught up) their positions, orientations and velocities are written back to the YADE "
@@ -110,13 +113,16 @@ public:
 		.def("initialize", &PolyhedraGpuEngine::initialize, "Hand the stones and walls to the polyhedra system now (otherwise done at the first step). A FemCouplingEngine with contactModel='polyhedra' in O.engines connects first, so that its surface joins the walls.")
 		.def("addStone", &PolyhedraGpuEngine::addStone, (py::arg("id"), py::arg("vertices"), py::arg("dilationRadius") = -1), "Register body *id* as a stone whose convex core has *vertices* (list of Vector3, body frame, m), dilated by *dilationRadius* [m] (default: :yref:`PolyhedraGpuEngine.dilationRadius`). Stones with the same core and dilation share a template. Before the first step only. At initialization the body's :yref:`State.mass` becomes the dilated stone's mass [kg] (density of its material; its inertia stays the YADE body's own, unused by the engine).")
 		.def("dilatedVolume", &PolyhedraGpuEngine::dilatedVolume, (py::arg("vertices"), py::arg("dilationRadius"))).staticmethod("dilatedVolume")
+		.def("setWallVelocity", &PolyhedraGpuEngine::setWallVelocity, (py::arg("facets"), py::arg("velocity")), "Move the :yref:`Facet` bodies *facets* (ids) rigidly with *velocity* [m/s] from the next batch on, until changed (e.g. a compaction plate); the facets' YADE states follow at the end of each batch. Not while a coupled surface drives the engine.")
+		.def("wallForce", &PolyhedraGpuEngine::wallForce, (py::arg("facets")), "Force of the stones on the :yref:`Facet` bodies *facets* (ids) [N], mean over the steps of the last batch.")
+		.def("criticalTimeStep", &PolyhedraGpuEngine::criticalTimeStep, (py::arg("normalForce") = 0, py::arg("impactVelocity") = 0), "Smallest critical time step of the registered stones [s] for contacts carrying *normalForce* [N] and impacts at *impactVelocity* [m/s] (whichever are > 0): Hertz contact-oscillator limit (kernels/CriticalTimeStep.hpp) of two equal stones and of a stone on a wall, over the shape templates. Initializes the system. Take 0.2-0.5 of it.")
 		.def("contacts", &PolyhedraGpuEngine::contactsPy, "Active contacts at the last force evaluation of the last batch, a list of dicts: ``id1``, ``id2`` (YADE body ids of the two stones; ``id2`` = -1 for a wall or surface contact), ``triangle`` (index in the wall mesh, -1 between stones), ``facet`` (the Facet body's id, -1 otherwise), ``surfaceTriangle`` (index in the coupled surface's triangles, :yref:`FemCouplingEngine.triangles`, -1 otherwise), ``point`` (contact point [m]), ``normal`` (unit, from id1 towards id2 or the wall), ``force`` (force on id2 or on the wall [N]; id1 receives the opposite), ``overlap`` [m].")
 		.def("stoneForces", &PolyhedraGpuEngine::stoneForcesPy, "Contact force on each stone at the last force evaluation, gravity excluded: dict {body id: Vector3} [N].")
 		.def("stoneTorques", &PolyhedraGpuEngine::stoneTorquesPy, "Contact torque on each stone about its centre of mass at the last force evaluation: dict {body id: Vector3} [N m].")
 		.def("writeState", &PolyhedraGpuEngine::writeStatePy, (py::arg("path")), "Write the polyhedra system's whole state (stones, contact histories, surface, time) to the file *path* (binary; PolyhedraSystem::writeState).")
 		.def("readState", &PolyhedraGpuEngine::readStatePy, (py::arg("path")), "Read a state written by writeState into this engine's system (built the same way: same stones, shapes and walls) and sync the YADE bodies to it; a file that does not fit is refused with the reason.")
-		.def("restartState", &PolyhedraGpuEngine::restartState, "The polyhedra system's state (bytes) for a restart checkpoint. Not yet available: raises.")
-		.def("restoreRestartState", &PolyhedraGpuEngine::restoreRestartState, (py::arg("state")), "Put back what restartState() returned. Not yet available: raises.")
+		.def("restartState", &PolyhedraGpuEngine::restartState, "The polyhedra system's state (bytes) for a restart checkpoint: stones, contact histories, neighbour lists, the snapshot an implicit window keeps, moving facets.")
+		.def("restoreRestartState", &PolyhedraGpuEngine::restoreRestartState, (py::arg("state")), "Put back what restartState() returned, in a scene rebuilt the same way (the stream's counts and shapes are checked; a state that does not fit is refused with the reason).")
 	);
   // clang-format on
   DECLARE_LOGGER;
@@ -124,11 +130,14 @@ public:
 private:
   void syncBack();
   void requireSystem(const char* what) const;
+  int triangleOfFacet(Body::id_t facet) const;
 
   std::shared_ptr<railcosim::polyhedra::PolyhedraSystem> system;
   std::vector<Body::id_t> stoneIds;
   std::vector<std::vector<Vector3r>> stoneCores; // registered core vertices, same order
   std::vector<Real> stoneDilation;               // r_d per stone [m]; < 0: dilationRadius
+  std::vector<double> facetNodeVelocities;       // [m/s], 3 per facet node (setWallVelocity)
+  bool facetsMove = false;
   std::vector<Quaternionr> principalToBody;      // rotation from the stone's principal frame to the YADE body frame
   std::vector<Vector3r> centroidInBody;          // stone centroid in the YADE body frame
   // Wall mesh: the facets' triangles (three nodes each, at rest), then the coupled surface's.

@@ -1,0 +1,445 @@
+"""The sleeper-on-ballast box test as data, without YADE: geometry, gradation, stones, sensors, load pattern, stages.
+
+The scene is the box test of Song et al. 2019 as simulated by Ullrich 2022 (ch. 6, Table 6.1): a timber sleeper
+on a ballast bed in a 3.2 x 1.0 x 0.8 m box, five pressure cells 0.13 m below the bed surface, rail-seat loads
+ramped to 132 kN, cycled between 4.4 and 44 kN, ramped again. This module turns the case's parameters (the flat
+dict of case.toml) into everything a DEM driver needs to build and prepare it, so that the YADE scripts of this
+folder (bed.py, dem.py) and a driver without YADE read one description:
+
+    scene = build(p)                 # geometry, gradation, materials, sensors, stages, load pattern
+    stones = layer_stones(scene, rng, z_low, z_high)   # (shape, size) drawn for a layer of the bed
+    cloud = place_cloud(scene, stones, region, rng)    # non-overlapping start positions and orientations
+    core, r_d = stone_core(scene, shape, size)         # core vertices (body frame) and dilation radius
+
+Frame: the bed box spans x in [0, bed_length_m], y in [0, bed_width_m], z in [0, 0.8] (floor at z = 0); the
+sleeper is centred on the box in x and y. Numpy and the shape library only (/usr/bin/python3 or YADE's Python).
+"""
+import hashlib
+import json
+import math
+import os
+import sys
+
+import numpy as np
+
+HERE = os.path.dirname(os.path.abspath(__file__))
+ROOT = os.environ.get("RAILCOSIM_ROOT", os.path.dirname(os.path.dirname(HERE)))
+sys.path.insert(0, os.path.join(ROOT, "yade_engines", "clusters"))
+import ballast_clusters  # noqa: E402  (shape library, rotations, polyhedron mass properties)
+
+# Ullrich 2022 Table 6.1 and Song et al. 2019 (fixed by the experiment, not parameters of the case).
+SEED_BED = (3.2, 1.0, 0.8)            # m, the box of the test
+SLEEPER_SIZE = (2.5, 0.2, 0.18)       # m, timber sleeper L x W x H
+RAIL_SEAT_OFFSET = 0.7175             # m from the sleeper centre: x = 0.8825 and 2.3175 m in the 3.2 m box
+RAIL_SEAT_SIZE = (0.15, 0.2)          # m, rail-seat patch (x, y)
+SENSOR_SIZE = (0.22, 0.22, 0.1)       # m, pressure cells
+SENSOR_SPACING = 0.38                 # m between sensor centres along x
+SENSOR_COUNT = 5
+GRAVITY = 9.81
+# Porosity assumed to turn a volume into a stone count; the stage log reports the porosity reached.
+ASSUMED_POROSITY = 0.40
+SIZE_QUANTUM = 1.0 / 40.0             # sizes are rounded to 1/40 of the mean: shared templates, 2.5 % steps
+
+BED_FORMAT = 1                        # version of the bed file layout (part of the cache key)
+
+
+# ---------------------------------------------------------------------------------------------------
+# Shapes: the library's 8 stones (unit sieve size, principal axes) as dilated polyhedra.
+# ---------------------------------------------------------------------------------------------------
+def _shape_measures(vertices, triangles):
+    """Feret diameter (largest vertex distance), volume, area and integral of mean curvature of a convex core:
+    the Steiner formula V(r) = V + A r + M r^2 + 4/3 pi r^3 gives the dilated volume (Ullrich 2022 eq. 2.5),
+    with M = 1/2 sum over edges of length x exterior dihedral angle."""
+    v = np.asarray(vertices, float)
+    t = np.asarray(triangles, int)
+    feret = max(float(np.max(np.linalg.norm(v - p, axis=1))) for p in v)
+    a, b, c = v[t[:, 0]], v[t[:, 1]], v[t[:, 2]]
+    cross = np.cross(b - a, c - a)
+    area = 0.5 * float(np.sum(np.linalg.norm(cross, axis=1)))
+    normals = cross / np.linalg.norm(cross, axis=1)[:, None]
+    volume = float(np.sum(np.einsum("ij,ij->i", a, np.cross(b, c)))) / 6.0
+    faces_of_edge = {}
+    for face, tri in enumerate(t):
+        for k in range(3):
+            edge = tuple(sorted((tri[k], tri[(k + 1) % 3])))
+            faces_of_edge.setdefault(edge, []).append(face)
+    curvature = 0.0
+    for (i, j), faces in faces_of_edge.items():
+        if len(faces) == 2:
+            cosine = float(np.clip(np.dot(normals[faces[0]], normals[faces[1]]), -1.0, 1.0))
+            curvature += 0.5 * np.linalg.norm(v[i] - v[j]) * math.acos(cosine)
+    return feret, abs(volume), area, curvature
+
+
+_LIBRARY = None
+
+
+def library():
+    """The shape library's stones: [{name, vertices (unit sieve size), triangles, feret, volume, area, curvature}]."""
+    global _LIBRARY
+    if _LIBRARY is None:
+        shapes = ballast_clusters.loadShapeLibrary()["shapes"]
+        _LIBRARY = []
+        for shape in shapes:
+            feret, volume, area, curvature = _shape_measures(shape["vertices"], shape["triangles"])
+            _LIBRARY.append({"name": shape["name"], "vertices": shape["vertices"], "triangles": shape["triangles"],
+                             "clusters": shape["clusters"], "feret": feret, "volume": volume, "area": area,
+                             "curvature": curvature})
+    return _LIBRARY
+
+
+def stone_core(scene, shape, size):
+    """(core vertices in the body frame [m], dilation radius r_d [m]) of library stone `shape` of characteristic
+    length `size`: r_d = dilation_fraction x size, and the core scaled so that the dilated stone's Feret diameter
+    (its largest extent) is `size` (a Minkowski sum with a ball of radius r_d adds 2 r_d to every extent)."""
+    stone = library()[shape]
+    r_d = scene["dilation_fraction"] * size
+    scale = (size - 2.0 * r_d) / stone["feret"]
+    return stone["vertices"] * scale, r_d
+
+
+def stone_volume(scene, shape, size):
+    """Volume of the dilated stone [m^3] (Steiner formula, exact for a convex core)."""
+    stone = library()[shape]
+    r_d = scene["dilation_fraction"] * size
+    s = (size - 2.0 * r_d) / stone["feret"]
+    return (stone["volume"] * s ** 3 + stone["area"] * s * s * r_d + stone["curvature"] * s * r_d * r_d
+            + 4.0 / 3.0 * math.pi * r_d ** 3)
+
+
+def mean_stone_volume(scene, samples=20000):
+    """Mean dilated volume of the gradation over the library shapes [m^3] (a fixed-seed sample)."""
+    rng = np.random.default_rng(12345)
+    sizes = sample_sizes(scene["gradation"], rng, samples)
+    shapes = rng.integers(len(library()), size=samples)
+    return float(np.mean([stone_volume(scene, s, d) for s, d in zip(shapes, sizes)]))
+
+
+# ---------------------------------------------------------------------------------------------------
+# Gradation: Ullrich 2022's normal distribution of the characteristic length, truncated.
+# ---------------------------------------------------------------------------------------------------
+def sample_sizes(gradation, rng, count):
+    """`count` characteristic lengths [m] from the normal distribution (mean, std) truncated to [min, max]
+    (rejection), rounded to SIZE_QUANTUM of the mean so that stones share shape templates."""
+    mean, std, low, high = (gradation[k] for k in ("mean", "std", "min", "max"))
+    sizes = np.empty(0)
+    while len(sizes) < count:
+        draw = rng.normal(mean, std, size=2 * (count - len(sizes)) + 16)
+        sizes = np.concatenate([sizes, draw[(draw >= low) & (draw <= high)]])
+    quantum = SIZE_QUANTUM * mean
+    return np.clip(np.round(sizes[:count] / quantum) * quantum, low, high)
+
+
+def seed_stone_count(p):
+    """Stones of the seed's gradation (mean 0.04 m) that fill this bed at ASSUMED_POROSITY."""
+    scene = _scene_with_scale(p, 1.0)
+    return (1.0 - ASSUMED_POROSITY) * math.prod(scene["bed"]) / mean_stone_volume(scene)
+
+
+def size_scale(p):
+    """Factor on every length of the gradation: (seed count / stones)^(1/3), so that about `stones` stones fill
+    the bed; 1 (the seed's sizes) when stones = 0."""
+    if p["stones"] <= 0:
+        return 1.0
+    return (seed_stone_count(p) / p["stones"]) ** (1.0 / 3.0)
+
+
+# ---------------------------------------------------------------------------------------------------
+# The scene
+# ---------------------------------------------------------------------------------------------------
+def _scene_with_scale(p, scale):
+    length, width = p["bed_length_m"], p["bed_width_m"]
+    gradation = {k: scale * p[f"stone_size_{k}_m"] for k in ("mean", "std", "min", "max")}
+    centre = (0.5 * length, 0.5 * width)
+    height = p["bed_height_m"]
+    sensor_top = height - p["sensor_depth_m"]
+    sensors = [(centre[0] + (k - SENSOR_COUNT // 2) * SENSOR_SPACING, centre[1], sensor_top - 0.5 * SENSOR_SIZE[2])
+               for k in range(SENSOR_COUNT)]
+    return {
+        "bed": (length, width, height),
+        "centre": centre,
+        "gradation": gradation,
+        "size_scale": scale,
+        "dilation_fraction": p["dilation_fraction"],
+        "particle_shape": p["particle_shape"],
+        "material": {"density": p["particle_density"], "young": p["particle_young"], "poisson": p["particle_poisson"],
+                     "friction": p["friction"], "restitution": p["restitution"]},
+        "sleeper": {"size": SLEEPER_SIZE, "origin": (centre[0] - 0.5 * SLEEPER_SIZE[0], centre[1] - 0.5 * SLEEPER_SIZE[1]),
+                    "rail_seats": (centre[0] - RAIL_SEAT_OFFSET, centre[0] + RAIL_SEAT_OFFSET),
+                    "rail_seat_size": RAIL_SEAT_SIZE},
+        "sensors": {"size": SENSOR_SIZE, "centres": sensors, "top": sensor_top,
+                    "dilation": p["sensor_dilation_m"]},
+        # Stage heights (Ullrich 2022 Fig. 6.4): the first layer is trimmed where the sensors' bottoms go.
+        "first_trim": sensor_top - SENSOR_SIZE[2],
+        "final_trim": height,
+    }
+
+
+def build(p):
+    """The scene of a case's parameters p (flat dict): box, gradation (scaled by size_scale), materials, sleeper,
+    sensors, stage heights, preparation stages and load pattern."""
+    scene = _scene_with_scale(p, size_scale(p))
+    scene["stages"] = preparation_stages(p, scene)
+    scene["load_pattern"] = load_pattern(p)
+    return scene
+
+
+def check(p):
+    """Problems with a parameter set that ranges cannot express, one message each."""
+    problems = []
+    length, width = p["bed_length_m"], p["bed_width_m"]
+    reach = SENSOR_COUNT // 2 * SENSOR_SPACING + 0.5 * SENSOR_SIZE[0]
+    if length < SLEEPER_SIZE[0] + 0.1 or length < 2 * reach + 0.1:
+        problems.append(f"bed_length_m={length:g}: the 2.5 m sleeper and the sensors (x = centre +- {reach:.2f} m) need "
+                        f"at least {max(SLEEPER_SIZE[0], 2 * reach) + 0.1:.2f} m")
+    if width < max(SLEEPER_SIZE[1], SENSOR_SIZE[1]) + 0.05:
+        problems.append(f"bed_width_m={width:g}: the sleeper (0.2 m) and the sensors (0.22 m) need at least 0.27 m")
+    if p["sensor_depth_m"] + SENSOR_SIZE[2] > p["bed_height_m"] - 0.1:
+        problems.append(f"sensor_depth_m={p['sensor_depth_m']:g}: the sensors must lie above 0.1 m of ballast")
+    if not p["stone_size_min_m"] <= p["stone_size_mean_m"] <= p["stone_size_max_m"]:
+        problems.append("stone sizes need stone_size_min_m <= stone_size_mean_m <= stone_size_max_m")
+    return problems
+
+
+# ---------------------------------------------------------------------------------------------------
+# Stones of a layer and their start positions
+# ---------------------------------------------------------------------------------------------------
+def layer_stones(scene, rng, z_low, z_high):
+    """[(shape index, size)] for a settled layer from z_low to z_high over the bed's footprint, at
+    ASSUMED_POROSITY, shapes drawn uniformly from the library."""
+    length, width, _ = scene["bed"]
+    volume = (1.0 - ASSUMED_POROSITY) * length * width * (z_high - z_low)
+    sizes = sample_sizes(scene["gradation"], rng, max(1, int(round(volume / mean_stone_volume(scene)))))
+    shapes = rng.integers(len(library()), size=len(sizes))
+    return list(zip(shapes.tolist(), sizes.tolist()))
+
+
+def rotation_matrix(q):
+    """Rotation matrix of the quaternion (w, x, y, z) (body frame to world)."""
+    w, x, y, z = q
+    return np.array([[1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)],
+                     [2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)],
+                     [2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)]])
+
+
+def _quaternion_of(rotation):
+    """(w, x, y, z) of a rotation matrix."""
+    m = rotation
+    w = math.sqrt(max(0.0, 1.0 + m[0, 0] + m[1, 1] + m[2, 2])) / 2.0
+    x = math.copysign(math.sqrt(max(0.0, 1.0 + m[0, 0] - m[1, 1] - m[2, 2])) / 2.0, m[2, 1] - m[1, 2])
+    y = math.copysign(math.sqrt(max(0.0, 1.0 - m[0, 0] + m[1, 1] - m[2, 2])) / 2.0, m[0, 2] - m[2, 0])
+    z = math.copysign(math.sqrt(max(0.0, 1.0 - m[0, 0] - m[1, 1] + m[2, 2])) / 2.0, m[1, 0] - m[0, 1])
+    q = np.array([w, x, y, z])
+    return q / np.linalg.norm(q)
+
+
+def _column_profile(core, triangles, dilation, rotation, cell, margin):
+    """Vertical extent of a rotated stone over a grid of columns: the core's face planes pushed out by r_d + margin
+    (a convex superset of the dilated stone) cut each vertical line through a column centre. Returns (bottom,
+    top) arrays (wx, wy) relative to the body origin (NaN where the column misses the stone) and the column
+    offsets u (wx), v (wy) of the grid, centred on the body origin."""
+    world = core @ rotation.T
+    a, b, c = world[triangles[:, 0]], world[triangles[:, 1]], world[triangles[:, 2]]
+    normals = np.cross(b - a, c - a)
+    normals /= np.linalg.norm(normals, axis=1)[:, None]
+    offsets = np.einsum("ij,ij->i", normals, a) + dilation + margin
+    reach = np.max(np.abs(world[:, :2]), axis=0) + dilation + margin
+    wx, wy = 2 * int(math.ceil(reach[0] / cell)) + 1, 2 * int(math.ceil(reach[1] / cell)) + 1
+    u, v = (np.arange(wx) - (wx - 1) / 2.0) * cell, (np.arange(wy) - (wy - 1) / 2.0) * cell
+    x, y = np.meshgrid(u, v, indexing="ij")
+    # n_x x + n_y y + n_z z <= d for every face: bounds on z per column.
+    rest = offsets[None, None, :] - normals[:, 0] * x[..., None] - normals[:, 1] * y[..., None]
+    nz = normals[:, 2]
+    with np.errstate(divide="ignore", invalid="ignore"):
+        bound = rest / nz
+    top = np.min(np.where(nz > 1e-12, bound, np.inf), axis=2)
+    bottom = np.max(np.where(nz < -1e-12, bound, -np.inf), axis=2)
+    outside = np.any((np.abs(nz) <= 1e-12) & (rest < 0), axis=2) | (bottom > top)
+    bottom[outside], top[outside] = np.nan, np.nan
+    return bottom, top, u, v
+
+
+def place_cloud(scene, stones, region, rng, gap_fraction=0.02, candidates=10, orientations_tried=4):
+    """Start positions for `stones` [(shape, size)], none touching: each stone gets a random orientation
+    (uniform, Shoemake) and is dropped, in random order, onto a height map of the region's footprint (columns of
+    a tenth of the smallest size): its column profile (_column_profile, widened by gap_fraction x size and by most of
+    a cell) comes to
+    rest on the highest column under it, and of `orientations_tried` random orientations x `candidates` random
+    (x, y) the lowest centre is kept (random sequential deposition that prefers stones lying low: a dense, mixed
+    cloud above z_low, without the voids of box packing).
+    region = (x_low, x_high, y_low, y_high, z_low). Returns {positions (n,3) of the body frames, orientations
+    (n,4) w,x,y,z, top: the highest stone top}."""
+    x_low, x_high, y_low, y_high, z_low = region
+    cell = 0.1 * scene["gradation"]["min"]
+    nx, ny = max(1, int((x_high - x_low) / cell)), max(1, int((y_high - y_low) / cell))
+    heights = np.full((nx, ny), float(z_low))
+    n = len(stones)
+    positions, orientations = np.zeros((n, 3)), np.zeros((n, 4))
+    top = z_low
+    for i in rng.permutation(n):
+        shape, size = stones[i]
+        core, r_d = stone_core(scene, shape, size)
+        best = None
+        for _ in range(orientations_tried):
+            rotation = ballast_clusters.randomRotation(rng)
+            # The margin covers the gap and what sampling the columns at their centres misses (up to a cell's
+            # half-diagonal sideways): no two stones overlap.
+            bottom, upper, _, _ = _column_profile(core, library()[shape]["triangles"], r_d, rotation, cell,
+                                                  0.5 * gap_fraction * size + 0.75 * cell)
+            wx, wy = bottom.shape
+            inside = ~np.isnan(bottom)
+            for _ in range(candidates):
+                ix = int(rng.integers(0, max(1, nx - wx + 1)))
+                iy = int(rng.integers(0, max(1, ny - wy + 1)))
+                window = heights[ix:ix + wx, iy:iy + wy]
+                if window.shape != bottom.shape:
+                    continue  # the stone is wider than the region
+                rest = float(np.max((window - bottom)[inside]))
+                if best is None or rest < best[0]:
+                    best = (rest, ix, iy, rotation, bottom, upper)
+        if best is None:
+            raise ValueError(f"place_cloud: a stone of size {size:.3f} m does not fit in the region {region}")
+        centre_z, ix, iy, rotation, bottom, upper = best
+        wx, wy = bottom.shape
+        inside = ~np.isnan(bottom)
+        window = heights[ix:ix + wx, iy:iy + wy]
+        window[inside] = np.maximum(window[inside], centre_z + upper[inside])
+        positions[i] = (x_low + (ix + 0.5 * wx) * cell, y_low + (iy + 0.5 * wy) * cell, centre_z)
+        orientations[i] = _quaternion_of(rotation)
+        top = max(top, centre_z + float(np.nanmax(upper)))
+    return {"positions": positions, "orientations": orientations, "top": top}
+
+
+def sensor_core(scene):
+    """Core vertices of a sensor block (its box shrunk by the sensor's dilation on every side) and the dilation."""
+    r = scene["sensors"]["dilation"]
+    half = [0.5 * s - r for s in SENSOR_SIZE]
+    return np.array([(sx * half[0], sy * half[1], sz * half[2]) for sx in (-1, 1) for sy in (-1, 1) for sz in (-1, 1)]), r
+
+
+# ---------------------------------------------------------------------------------------------------
+# Preparation (Ullrich 2022 §6.2, Fig. 6.4) and the load pattern
+# ---------------------------------------------------------------------------------------------------
+def preparation_stages(p, scene):
+    """The bed preparation as a list of stages {name, what, ...settings}; bed.py runs them in this order."""
+    surplus = scene["gradation"]["mean"]  # generated above each trim height, so that the trimmed layer is full
+    compaction = {"pressure_kpa": p["compaction_pressure_kPa"], "amplitude": p["compaction_amplitude"],
+                  "frequency_hz": p["compaction_frequency_hz"], "cycles": p["compaction_cycles"]}
+    return [
+        {"name": "layer1", "what": "generate the first layer and let it settle", "z_low": 0.0,
+         "z_high": scene["first_trim"] + surplus, "settle_s": p["settle_max_s"]},
+        {"name": "compact1", "what": "compact it with a plate moving sinusoidally", **compaction},
+        {"name": "trim1", "what": f"remove stones centred above {scene['first_trim']:.3f} m or inside a sensor; place "
+                                  "the five sensors", "height": scene["first_trim"]},
+        {"name": "layer2", "what": "generate the second layer on top and let it settle",
+         "z_high": scene["final_trim"] + surplus, "settle_s": p["settle_max_s"]},
+        {"name": "compact2", "what": "compact it with the plate", **compaction},
+        {"name": "trim2", "what": f"remove stones centred above {scene['final_trim']:.3f} m and let the bed rest",
+         "height": scene["final_trim"], "settle_s": p["trim_settle_s"]},
+        {"name": "seat", "what": "lower a rigid plate of the sleeper's footprint onto the bed until it carries the "
+                                 "sleeper's weight plus the seating load",
+         "load_n": p["sleeper_density"] * math.prod(SLEEPER_SIZE) * GRAVITY + p["seating_load_N"]},
+    ]
+
+
+def design_contact_loads(p, scene, phase):
+    """What the DEM time step is sized for (PolyhedraGpuEngine.criticalTimeStep x critical_step_fraction), for the
+    "preparation" or the "load" run:
+    - contact_force_n: 5 x the mean force of a stone under the plate (compaction: its peak pressure) or the sleeper
+      (load: the peak load plus the sleeper's weight over 2.5 x 0.2 m), the mean being the pressure times the mean
+      stone size squared (one contact per stone under a flat face); a granular force network's forces fall off
+      exponentially above the mean, and 5x the mean is exceeded by a few contacts in a thousand (Mueth, Jaeger &
+      Nagel 1998);
+    - impact_speed_m_s: preparation: a stone falling through twice the bed height (the generated cloud's top); load
+      run: the sleeper's largest speed, that of a bounce on the bed (taken as 0.5 m/s)."""
+    if phase == "preparation":
+        pressure = (1.0 + p["compaction_amplitude"]) * p["compaction_pressure_kPa"] * 1e3
+        speed = math.sqrt(2.0 * GRAVITY * 2.0 * p["bed_height_m"])
+    else:
+        weight = p["sleeper_density"] * math.prod(SLEEPER_SIZE) * GRAVITY
+        pressure = (p["peak_load_kN"] * 1e3 + weight) / (SLEEPER_SIZE[0] * SLEEPER_SIZE[1])
+        speed = 0.5
+    return {"contact_force_n": 5.0 * pressure * scene["gradation"]["mean"] ** 2, "impact_speed_m_s": speed}
+
+
+def load_pattern(p):
+    """The rail-seat load history as the FEM options of freefem_scripts/lib/load_pattern.idp: loads are the
+    total on the sleeper [N], half per rail seat; times in the test's own time, run time_scale times faster."""
+    return {"seatingLoad": p["seating_load_N"], "seatingTime": p["seating_time_s"], "rampRate": p["ramp_rate_kN_s"] * 1e3,
+            "peakLoad": p["peak_load_kN"] * 1e3, "holdTime": p["hold_time_s"],
+            "cyclicMinLoad": p["cyclic_min_kN"] * 1e3, "cyclicMaxLoad": p["cyclic_max_kN"] * 1e3,
+            "cyclicFrequency": p["cyclic_frequency_hz"], "cycles": p["cycles"], "timeScale": p["time_scale"]}
+
+
+def load_run_duration(p):
+    """Simulated time of the coupled load run [s]: the pattern's end and the rest after it (settle_after_s)."""
+    return pattern_phase_ends(load_pattern(p))["patternEnd"] + p["settle_after_s"]
+
+
+def pattern_phase_ends(pattern):
+    """Ends of the pattern's phases in simulated seconds, as loadPatternPhaseEnds of load_pattern.idp computes
+    them (the run's fem_summary.json holds FreeFEM's own values; the case checks that they agree):
+    rampStart, holdStart, holdEnd, cyclesStart, cyclesEnd, patternEnd."""
+    rate = pattern["rampRate"]
+    ends = [pattern["seatingTime"]]
+    ends.append(ends[-1] + (pattern["peakLoad"] - pattern["seatingLoad"]) / rate)
+    ends.append(ends[-1] + pattern["holdTime"])
+    ends.append(ends[-1] + (pattern["peakLoad"] - pattern["cyclicMinLoad"]) / rate)
+    ends.append(ends[-1] + pattern["cycles"] / pattern["cyclicFrequency"])
+    ends.append(ends[-1] + (pattern["peakLoad"] - pattern["cyclicMinLoad"]) / rate)
+    names = ("rampStart", "holdStart", "holdEnd", "cyclesStart", "cyclesEnd", "patternEnd")
+    return {name: end / pattern["timeScale"] for name, end in zip(names, ends)}
+
+
+# ---------------------------------------------------------------------------------------------------
+# The bed file: what defines a bed, and where it is kept
+# ---------------------------------------------------------------------------------------------------
+BED_PARAMETERS = ("bed_length_m", "bed_width_m", "bed_height_m", "sensor_depth_m", "particle_shape", "stones", "stone_size_mean_m",
+                  "stone_size_std_m", "stone_size_min_m", "stone_size_max_m", "dilation_fraction", "particle_density",
+                  "particle_young", "particle_poisson", "friction", "restitution", "sensor_dilation_m",
+                  "compaction_pressure_kPa", "compaction_amplitude", "compaction_frequency_hz", "compaction_cycles",
+                  "settle_max_s", "settle_speed_m_s", "trim_settle_s", "sleeper_density", "seating_load_N",
+                  "critical_step_fraction", "cluster_level", "seed")
+
+
+def bed_key(p):
+    """Cache key of a bed: a hash of the parameters that define it (BED_PARAMETERS) and of the file layout."""
+    defining = {name: p[name] for name in BED_PARAMETERS}
+    text = json.dumps({"format": BED_FORMAT, **defining}, sort_keys=True)
+    return hashlib.sha256(text.encode()).hexdigest()[:16]
+
+
+def bed_path(p):
+    """Where the bed of these parameters is kept: bed_cache_dir (default $RAILCOSIM_CACHE/beds/sleeper_on_ballast)."""
+    folder = p["bed_cache_dir"] or os.path.join(os.environ.get("RAILCOSIM_CACHE", os.path.expanduser("~/.cache/railcosim")),
+                                                "beds", "sleeper_on_ballast")
+    return os.path.join(folder, f"bed-{bed_key(p)}.h5")
+
+
+def describe(p):
+    """A few lines on the scene of p: sizes, expected stone count, stages, pattern duration."""
+    scene = build(p)
+    g = scene["gradation"]
+    count = (1.0 - ASSUMED_POROSITY) * math.prod(scene["bed"]) / mean_stone_volume(scene)
+    ends = pattern_phase_ends(scene["load_pattern"])
+    lines = [f"bed {scene['bed'][0]:g} x {scene['bed'][1]:g} x {scene['bed'][2]:g} m, stones: normal mean {g['mean']:.4f} m, "
+             f"std {g['std']:.4f} m in [{g['min']:.4f}, {g['max']:.4f}] (x{scene['size_scale']:.3f} of the seed's), "
+             f"r_d = {scene['dilation_fraction']:g} x size; about {count:.0f} stones at porosity {ASSUMED_POROSITY:g} "
+             f"(seed's sizes: {seed_stone_count(p):.0f})",
+             f"sensors: top at z = {scene['sensors']['top']:.3f} m, x = "
+             + ", ".join(f"{c[0]:.3f}" for c in scene["sensors"]["centres"]),
+             "stages: " + "; ".join(f"{s['name']}: {s['what']}" for s in scene["stages"]),
+             f"load pattern: {ends['patternEnd']:.4f} s simulated (ramp 1 from {ends['rampStart']:.4f} s, hold "
+             f"{ends['holdStart']:.4f}-{ends['holdEnd']:.4f} s, cycles {ends['cyclesStart']:.4f}-{ends['cyclesEnd']:.4f} s)"]
+    return "\n".join(lines)
+
+
+if __name__ == "__main__":
+    # /usr/bin/python3 cases/sleeper_on_ballast/scene.py [--set name=value ...]: the scene of case.toml's defaults.
+    sys.path.insert(0, os.path.join(ROOT, "python"))
+    import tomllib
+    from railcosim import parameters
+    with open(os.path.join(HERE, "case.toml"), "rb") as f:
+        config = tomllib.load(f)
+    sets = [a for a in sys.argv[1:] if a != "--set"]
+    print(describe(parameters.resolve_parameters(config, "--smoke" in sets, [s for s in sets if s != "--smoke"])))

@@ -3,9 +3,10 @@
 
 Meshes freefem_scripts/examples/monoblock_sleeper.geo with gmsh at several target element sizes, solves the
 turned-over sleeper held at its rail seats under a uniform pressure on its base (static mode, P2 tetrahedra)
-and prints a Markdown table of the deflection in the middle of the base. There is no closed form for the tapered
-3-D body: the reference is the Richardson extrapolation of the three finest meshes, with the order of
-convergence they show (Roache 1998, Verification and Validation in Computational Science, ch. 5),
+and prints a Markdown table of the deflection in its middle, on its axis (the example's monitor point), against
+the finest mesh. There is no closed form for the tapered 3-D body: the study also prints the Richardson
+extrapolation of the three finest meshes, with the order of convergence they show (Roache 1998, Verification and
+Validation in Computational Science, ch. 5),
     p = ln((d3 - d2) / (d2 - d1)) / ln(r),   d_inf = d1 + (d1 - d2) / (r^p - 1)
 for sizes h1 < h2 < h3 of constant ratio r. It also checks that gmsh makes the same mesh twice (the case meshes
 the .geo at run time instead of keeping a .msh).
@@ -73,8 +74,8 @@ def main():
     print("Turned-over B70-type sleeper held at its rail seats, %g Pa on its base, P2 tetrahedra." % args.pressure)
     print()
     rows = []
-    print("| size [m] | elements | dofs | interface nodes | deflection [m] | vs extrapolated | solve [s] | run [s] |")
-    print("|---|---|---|---|---|---|---|---|")
+    print("| size [m] | elements | dofs | interface nodes | deflection [m] | vs finest | vs extrapolated | solve [s] | run [s] |")
+    print("|---|---|---|---|---|---|---|---|---|")
     for size in sizes:
         summary, wall, _ = run_size(args, size)
         rows.append((size, summary, wall))
@@ -84,12 +85,15 @@ def main():
     order = math.log(abs((d3 - d2) / (d2 - d1))) / math.log(ratio)
     extrapolated = d1 + (d1 - d2) / (ratio ** order - 1.0)
     for (size, summary, wall), deflection in zip(rows, deflections):
-        print("| %g | %d | %d | %d | %.5e | %+.2f %% | %.2f | %.1f |"
+        print("| %g | %d | %d | %d | %.5e | %+.2f %% | %+.2f %% | %.2f | %.1f |"
               % (size, summary["elements"], summary["dofs"], summary["interfaceNodes"], deflection,
-                 100 * (deflection - extrapolated) / extrapolated, summary["factorisationSeconds"], wall))
+                 100 * (deflection - d1) / d1, 100 * (deflection - extrapolated) / extrapolated,
+                 summary["factorisationSeconds"], wall))
     print()
-    print("Observed order %.2f; extrapolated deflection %.5e m; sleeper mass %.1f kg, base %.3f m^2."
-          % (order, extrapolated, rows[-1][1]["mass"], rows[-1][1]["baseArea"]))
+    print("Observed order %.2f; extrapolated deflection %.5e m%s; sleeper mass %.1f kg, base %.3f m^2."
+          % (order, extrapolated, " (uncertain: an order below 1 means the meshes are not yet in the asymptotic range,"
+             " e.g. of the stress singularities at the edges of the held rail seats)" if order < 1 else "",
+             rows[-1][1]["mass"], rows[-1][1]["baseArea"]))
 
 
 if __name__ == "__main__":

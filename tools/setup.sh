@@ -29,7 +29,7 @@ packages=(
   python3-ipython python3-matplotlib python3-pygraphviz python3-xlib python3-sphinx python3-tk
   libeigen3-dev python3-future python3-pil
   libzmq3-dev cppzmq-dev python3-h5py python3-scipy
-  freefem++ libfreefem++-dev
+  freefem++ libfreefem++-dev gmsh
   clang libclang-rt-14-dev iproute2 util-linux
   slurm-wlm munge
   paraview python3-paraview xvfb xauth

@@ -35,7 +35,9 @@ class CaseError(Exception):
 class Case:
     """Base class of a case's case.py. Override the hooks the case needs; each one's docstring is its contract."""
 
-    fem_script = solvers.BOX_SOLVER  # FreeFEM entry script of freefem_scripts/solvers, of the coupled and reference runs
+    # FreeFEM entry script of the coupled and reference runs: a name in freefem_scripts/solvers, or a path relative to
+    # freefem_scripts (e.g. "examples/monoblock_sleeper.edp"; solvers.fem_script).
+    fem_script = solvers.BOX_SOLVER
 
     def fem_arguments(self, p):
         """{option: value} of fem_script describing the structure: dimensions, mesh, material, supported and

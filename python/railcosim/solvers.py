@@ -13,7 +13,11 @@ def root():
 
 
 def fem_script(name):
-    """Path of a FreeFEM entry script of freefem_scripts/solvers, e.g. fem_script("box_elastodynamics.edp")."""
+    """Path of a FreeFEM entry script: a name alone is one of freefem_scripts/solvers, e.g.
+    fem_script("box_elastodynamics.edp"); a relative path is taken from freefem_scripts, e.g.
+    fem_script("examples/monoblock_sleeper.edp") (a user's own structure through lib/coupling_loop.idp)."""
+    if os.path.dirname(name):
+        return os.path.join(root(), "freefem_scripts", name)
     return os.path.join(root(), "freefem_scripts", "solvers", name)
 
 

@@ -23,7 +23,7 @@ cp -r /usr/include/freefem++/idp "$stage/runtime/freefem/idp"
 cp "$driver" "$stage/runtime/"
 # The library closures, glibc's own and the C++ runtime left to the machine: FreeFEM's (lib/, given to FreeFem++ alone by
 # run_sleeper_device.sh's wrapper) and the driver's (driverlib/: ZeroMQ and what it needs, on Python's library path).
-skip='^(libc|libm|libpthread|libdl|librt|ld-linux-x86-64|libstdc\+\+|libgcc_s|libgomp|linux-vdso)\.so'
+skip='^(libc|libm|libpthread|libdl|librt|libresolv|ld-linux-x86-64|libstdc\+\+|libgcc_s|libgomp|linux-vdso)\.so'
 closure() { # closure FOLDER FILE...
   local folder=$1; shift
   mkdir -p "$folder"

@@ -5,7 +5,7 @@
 # Usage (repository root, on the GPU machine): benchmarks/gpu/run_sleeper_device.sh OUTDIR [runner options ...]
 #   e.g. ... OUTDIR --set stones=0 --set bed_width_m=1.0 --set cycles=100      (the seed's scene, README)
 # Environment: RUNTIME_ARCHIVE (default build/device-runtime.tgz), RUNTIME_DIR (where it is unpacked, default a
-# folder under /tmp), THREADS (OpenMP threads of the DEM process, default the cores). Writes OUTDIR/run (the results
+# folder under /tmp), THREADS (OpenMP threads of the DEM process, default the cores), PYTHON (default python3). Writes OUTDIR/run (the results
 # folder: summary.json, timeseries.h5, plots, logs), OUTDIR/cache (the bed files) and OUTDIR/device.txt.
 set -euo pipefail
 out=${1:?usage: run_sleeper_device.sh OUTDIR [runner options ...]}
@@ -34,11 +34,11 @@ export RAILCOSIM_ROOT=$root RAILCOSIM_CACHE="$out/cache" PYTHONPATH="$root/pytho
 export RAILCOSIM_POLYHEDRA_DRIVER="$rt/librailcosim_polyhedra_driver.so"
 {
   nvidia-smi --query-gpu=name,driver_version,memory.total --format=csv,noheader || true
-  echo "cores: $(nproc); python: $(python3 --version)"
+  echo "cores: $(nproc); python: $(${PYTHON:-python3} --version)"
 } | tee "$out/device.txt"
 start=$(date +%s)
 set +e
-python3 "$root/tools/run_case.py" "$root/cases/sleeper_on_ballast" --out "$out/run" --force \
+${PYTHON:-python3} "$root/tools/run_case.py" "$root/cases/sleeper_on_ballast" --out "$out/run" --force \
   --set dem_driver=standalone --set polyhedra_backend=cuda --set "dem_threads=${THREADS:-$(nproc)}" "$@"
 code=$?
 set -e

@@ -363,27 +363,93 @@ def seat(Stage, scene, bed, p, time_step, log, name, load):
     return height, history
 
 
+class StageCheckpoints:
+    """The preparation's state after each finished stage, in one file beside the bed file (PATH.stages.h5): the bed's
+    bodies, the stage log, the random generator's state, the time step and the plate histories. A preparation that is
+    stopped (a run's time limit, a GPU machine's 10-minute calls) goes on from the last finished stage when started
+    again with the same parameters, and gives the same bed as one run through: every stage starts from the bodies
+    alone, on a fresh system. Removed once the bed file is written."""
+
+    def __init__(self, path):
+        self.path = path + ".stages.h5"
+
+    def load(self, bed, rng):
+        """(finished stage names, log, dt, plates) of the file, the bed and the generator set to its state."""
+        if not os.path.isfile(self.path):
+            return [], [], None, {}
+        import h5py
+        with h5py.File(self.path, "r") as f:
+            for field in Bed.FIELDS:
+                setattr(bed, field, f[field][()])
+            plates = {name: f[f"plate/{name}"][()] for name in f.get("plate", {})}
+            rng.bit_generator.state = json.loads(f.attrs["rng"])
+            done, log = json.loads(f.attrs["done"]), json.loads(f.attrs["log"])
+            dt = float(f.attrs["dt"])
+        say(f"resuming after stage {done[-1]} from {self.path} ({len(bed)} bodies)")
+        return done, log, dt, plates
+
+    def save(self, done, bed, rng, log, dt, plates):
+        import h5py
+        temporary = f"{self.path}.{os.getpid()}.tmp"
+        with h5py.File(temporary, "w") as f:
+            for field in Bed.FIELDS:
+                f.create_dataset(field, data=getattr(bed, field))
+            for name, history in plates.items():
+                f.create_dataset(f"plate/{name}", data=history)
+            f.attrs["rng"] = json.dumps(rng.bit_generator.state)
+            f.attrs["done"] = json.dumps(done)
+            f.attrs["log"] = json.dumps(log)
+            f.attrs["dt"] = dt
+        os.replace(temporary, self.path)
+
+    def remove(self):
+        if os.path.isfile(self.path):
+            os.remove(self.path)
+
+
 def prepare(p, path, Stage):
+    """Runs the stages (resuming after the last finished one, StageCheckpoints) and writes the bed file."""
     scene = sc.build(p)
     rng = np.random.default_rng(p["seed"])
     say(sc.describe(p))
-    bed, log = Bed(), []
+    bed = Bed()
+    checkpoints = StageCheckpoints(path)
+    done, log, dt, plates = checkpoints.load(bed, rng)
     stages = {s["name"]: s for s in scene["stages"]}
-    dt = generate(Stage, scene, bed, rng, stages["layer1"]["z_high"], p, None, log, "layer1").dt
-    design = sc.design_contact_loads(p, scene, "preparation")
-    say(f"time step {dt:.3e} s: {p['critical_step_fraction']:g} x the critical step of the smallest stone for contacts "
-        f"of {design['contact_force_n']:.0f} N and impacts at {design['impact_speed_m_s']:.2f} m/s")
-    compaction1 = compact(Stage, scene, bed, p, dt, log, "compact1")
-    trim(scene, bed, scene["first_trim"], True, log, "trim1")
-    generate(Stage, scene, bed, rng, stages["layer2"]["z_high"], p, dt, log, "layer2")
-    compaction2 = compact(Stage, scene, bed, p, dt, log, "compact2")
-    trim(scene, bed, scene["final_trim"], False, log, "trim2")
-    stage = Stage(scene, bed, p, dt)
-    settle(stage, p["trim_settle_s"], 0.0, log, "trim2")
-    stage.finish()
-    seat_height, seating = seat(Stage, scene, bed, p, dt, log, "seat", stages["seat"]["load_n"])
-    save(path, p, scene, bed, log, seat_height, dt, {"compact1": compaction1, "compact2": compaction2, "seat": seating},
-         Stage.DRIVER)
+    seat_height = None
+
+    def layer1():
+        nonlocal dt
+        dt = generate(Stage, scene, bed, rng, stages["layer1"]["z_high"], p, None, log, "layer1").dt
+        design = sc.design_contact_loads(p, scene, "preparation")
+        say(f"time step {dt:.3e} s: {p['critical_step_fraction']:g} x the critical step of the smallest stone for "
+            f"contacts of {design['contact_force_n']:.0f} N and impacts at {design['impact_speed_m_s']:.2f} m/s")
+
+    def trim2():
+        trim(scene, bed, scene["final_trim"], False, log, "trim2")
+        stage = Stage(scene, bed, p, dt)
+        settle(stage, p["trim_settle_s"], 0.0, log, "trim2")
+        stage.finish()
+
+    def seat_plate():
+        nonlocal seat_height
+        seat_height, plates["seat"] = seat(Stage, scene, bed, p, dt, log, "seat", stages["seat"]["load_n"])
+
+    sequence = [("layer1", layer1),
+                ("compact1", lambda: plates.update(compact1=compact(Stage, scene, bed, p, dt, log, "compact1"))),
+                ("trim1", lambda: trim(scene, bed, scene["first_trim"], True, log, "trim1")),
+                ("layer2", lambda: generate(Stage, scene, bed, rng, stages["layer2"]["z_high"], p, dt, log, "layer2")),
+                ("compact2", lambda: plates.update(compact2=compact(Stage, scene, bed, p, dt, log, "compact2"))),
+                ("trim2", trim2), ("seat", seat_plate)]
+    for name, run in sequence:
+        if name in done:
+            continue
+        run()
+        done.append(name)
+        if name != "seat":
+            checkpoints.save(done, bed, rng, log, dt, plates)
+    save(path, p, scene, bed, log, seat_height, dt, plates, Stage.DRIVER)
+    checkpoints.remove()
     return log
 
 

@@ -5,8 +5,9 @@
 # Usage (repository root, on the GPU machine): benchmarks/gpu/run_sleeper_device.sh OUTDIR [runner options ...]
 #   e.g. ... OUTDIR --set stones=0 --set bed_width_m=1.0 --set cycles=100      (the seed's scene, README)
 # Environment: RUNTIME_ARCHIVE (default build/device-runtime.tgz), RUNTIME_DIR (where it is unpacked, default a
-# folder under /tmp), THREADS (OpenMP threads of the DEM process, default the cores), PYTHON (default python3). Writes OUTDIR/run (the results
-# folder: summary.json, timeseries.h5, plots, logs), OUTDIR/cache (the bed files) and OUTDIR/device.txt.
+# folder under /tmp), RAILCOSIM_CACHE (where bed files are kept, default OUTDIR/cache), THREADS (OpenMP threads of the DEM process, default the cores), PYTHON (default python3). Writes OUTDIR/run (the results
+# folder: summary.json, timeseries.h5, plots, logs) and OUTDIR/device.txt. A bed preparation stopped by the time limit
+# resumes after its last finished stage when run again with the same cache (preparation.StageCheckpoints).
 set -euo pipefail
 out=${1:?usage: run_sleeper_device.sh OUTDIR [runner options ...]}
 shift
@@ -30,7 +31,7 @@ export PATH="$rt/bin:$PATH"
 export LD_LIBRARY_PATH="$rt/driverlib${LD_LIBRARY_PATH:+:$LD_LIBRARY_PATH}"
 export FF_LOADPATH="$rt/freefem/plugins;./"
 export FF_INCLUDEPATH="$root/freefem_scripts/lib;$rt/freefem/idp;./"
-export RAILCOSIM_ROOT=$root RAILCOSIM_CACHE="$out/cache" PYTHONPATH="$root/python"
+export RAILCOSIM_ROOT=$root RAILCOSIM_CACHE="${RAILCOSIM_CACHE:-$out/cache}" PYTHONPATH="$root/python"
 export RAILCOSIM_POLYHEDRA_DRIVER="$rt/librailcosim_polyhedra_driver.so"
 {
   nvidia-smi --query-gpu=name,driver_version,memory.total --format=csv,noheader || true

@@ -12,7 +12,9 @@ archive=${1:-build/device-runtime.tgz}
 build=${RAILCOSIM_BUILD:-build}
 driver=$build/yade_engines/polyhedra/driver/librailcosim_polyhedra_driver.so
 bridge_plugin=$build/freefem_scripts/plugin/railcosim_bridge.so
-for f in "$driver" "$bridge_plugin"; do [ -f "$f" ] || { echo "missing $f: run ./railcosim build first" >&2; exit 1; }; done
+for f in "$driver" "$bridge_plugin"; do
+  [ -f "$f" ] || { echo "missing $f: run ./railcosim build first" >&2; exit 1; }
+done
 stage=$(mktemp -d)
 trap 'rm -rf "$stage"' EXIT
 mkdir -p "$stage/runtime/freefem/plugins"
@@ -37,4 +39,5 @@ closure "$stage/runtime/lib" "$stage"/runtime/freefem/FreeFem++ "$stage"/runtime
 closure "$stage/runtime/driverlib" "$stage"/runtime/librailcosim_polyhedra_driver.so
 mkdir -p "$(dirname "$archive")"
 tar -C "$stage" -czf "$archive" runtime
-echo "$archive: $(du -h "$archive" | cut -f1); FreeFEM $(ls "$stage/runtime/lib" | wc -l) libraries, driver $(ls "$stage/runtime/driverlib" | tr '\n' ' ')"
+echo "$archive: $(du -h "$archive" | cut -f1); FreeFEM $(ls "$stage/runtime/lib" | wc -l) libraries," \
+  "driver $(ls "$stage/runtime/driverlib" | tr '\n' ' ')"

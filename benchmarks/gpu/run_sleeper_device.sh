@@ -5,7 +5,8 @@
 # Usage (repository root, on the GPU machine): benchmarks/gpu/run_sleeper_device.sh OUTDIR [runner options ...]
 #   e.g. ... OUTDIR --set stones=0 --set bed_width_m=1.0 --set cycles=100      (the seed's scene, README)
 # Environment: RUNTIME_ARCHIVE (default build/device-runtime.tgz), RUNTIME_DIR (where it is unpacked, default a
-# folder under /tmp), RAILCOSIM_CACHE (where bed files are kept, default OUTDIR/cache), THREADS (OpenMP threads of the DEM process, default the cores), PYTHON (default python3). Writes OUTDIR/run (the results
+# folder under /tmp), RAILCOSIM_CACHE (where bed files are kept, default OUTDIR/cache), THREADS (OpenMP threads of
+# the DEM process, default the cores), PYTHON (default python3). Writes OUTDIR/run (the results
 # folder: summary.json, timeseries.h5, plots, logs) and OUTDIR/device.txt. A bed preparation stopped by the time limit
 # resumes after its last finished stage when run again with the same cache (preparation.StageCheckpoints).
 set -euo pipefail

@@ -11,7 +11,7 @@
 #include <chrono>
 #include <cmath>
 #include <cstring>
-#include <iostream>
+#include <sstream>
 #include <memory>
 #include <stdexcept>
 #include <string>
@@ -21,6 +21,7 @@
 #include "polyhedra/PolyhedraSystem.hpp"
 #include "polyhedra/PolyhedraWindow.hpp"
 #include "railcosim/CouplingScheme.hpp"
+#include "railcosim/Log.hpp"
 #include "railcosim/Participant.hpp"
 
 namespace poly = railcosim::polyhedra;
@@ -192,8 +193,10 @@ struct rcp_bed {
       }
       const railcosim::WindowIterationStatistics& iterations = coupling->iterationStatistics();
       if (!result.converged && !warnedUnconverged) {
-        std::cerr << "polyhedra driver: window " << window << " did not converge (residual " << iterations.lastResidual
-                  << " m, limit " << iterations.lastLimit << " m); its last pass is accepted (reported once)\n";
+        std::ostringstream message;
+        message << "polyhedra driver: window " << window << " did not converge (residual " << iterations.lastResidual
+                << " m, limit " << iterations.lastLimit << " m); its last pass is accepted (reported once)";
+        railcosim::log(railcosim::LogLevel::Warning, message.str());
         warnedUnconverged = true;
       }
       workFem += result.femWork;

@@ -54,18 +54,22 @@ class SleeperOnBallast(Case):
         return problems
 
     @staticmethod
-    def yade(p, script, *arguments):
-        """The case's YADE script on dem_threads OpenMP threads (the polyhedra CPU backend's stones)."""
-        return [os.path.join(solvers.root(), "railcosim"), "yade", f"-j{p['dem_threads']}",
-                os.path.join(p["case_dir"], script), *arguments]
+    def dem_script(p, script, *arguments):
+        """A DEM script of the case folder on the dem_driver's interpreter: YADE with dem_threads OpenMP threads (the
+        polyhedra CPU backend's stones), or this Python with the standalone driver, as many threads."""
+        path = os.path.join(p["case_dir"], script)
+        if p["dem_driver"] == "yade":
+            return [os.path.join(solvers.root(), "railcosim"), "yade", f"-j{p['dem_threads']}", path, *arguments]
+        return ["env", f"OMP_NUM_THREADS={p['dem_threads']}", sys.executable, path, *arguments]
 
     def preparation_runs(self, p, out):
         """The ballast bed (bed.py): prepared once per parameter set and kept; later runs reuse the file."""
-        return [("bed", self.yade(p, "bed.py", os.path.join(out, "parameters.json"), out))]
+        return [("bed", self.dem_script(p, "bed.py", os.path.join(out, "parameters.json"), out))]
 
     def dem_command(self, p, endpoint, out):
-        """dem.py on dem_threads threads."""
-        return self.yade(p, "dem.py", os.path.join(out, "parameters.json"), endpoint, out)
+        """dem.py (YADE) or dem_driver.py (standalone) on dem_threads threads."""
+        script = "dem.py" if p["dem_driver"] == "yade" else "dem_driver.py"
+        return self.dem_script(p, script, os.path.join(out, "parameters.json"), endpoint, out)
 
     @staticmethod
     def sleeper_options(p, seat_height):

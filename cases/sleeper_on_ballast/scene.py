@@ -247,14 +247,19 @@ def _column_profile(core, triangles, dilation, rotation, cell, margin):
     wx, wy = 2 * int(math.ceil(reach[0] / cell)) + 1, 2 * int(math.ceil(reach[1] / cell)) + 1
     u, v = (np.arange(wx) - (wx - 1) / 2.0) * cell, (np.arange(wy) - (wy - 1) / 2.0) * cell
     x, y = np.meshgrid(u, v, indexing="ij")
-    # n_x x + n_y y + n_z z <= d for every face: bounds on z per column.
-    rest = offsets[None, None, :] - normals[:, 0] * x[..., None] - normals[:, 1] * y[..., None]
+    # n_x x + n_y y + n_z z <= d for every face: bounds on z per column, upward faces bound it from above, downward
+    # ones from below, vertical ones cut columns off (each group evaluated on its own faces only).
     nz = normals[:, 2]
-    with np.errstate(divide="ignore", invalid="ignore"):
-        bound = rest / nz
-    top = np.min(np.where(nz > 1e-12, bound, np.inf), axis=2)
-    bottom = np.max(np.where(nz < -1e-12, bound, -np.inf), axis=2)
-    outside = np.any((np.abs(nz) <= 1e-12) & (rest < 0), axis=2) | (bottom > top)
+
+    def rest(faces):
+        return offsets[faces][None, None, :] - normals[faces, 0] * x[..., None] - normals[faces, 1] * y[..., None]
+
+    up, down, side = nz > 1e-12, nz < -1e-12, np.abs(nz) <= 1e-12
+    top = np.min(rest(up) / nz[up], axis=2) if up.any() else np.full(x.shape, np.inf)
+    bottom = np.max(rest(down) / nz[down], axis=2) if down.any() else np.full(x.shape, -np.inf)
+    outside = bottom > top
+    if side.any():
+        outside |= np.any(rest(side) < 0, axis=2)
     bottom[outside], top[outside] = np.nan, np.nan
     return bottom, top, u, v
 

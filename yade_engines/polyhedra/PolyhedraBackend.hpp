@@ -94,6 +94,10 @@ void visitStateArrays(Data& d, Visitor&& visit) {
   visit("wallOutput", d.wallOutput);
 }
 
+// Parts of the state that PolyhedraBackend::downloadParts brings back.
+constexpr int downloadStones = 1;    // position, velocity, rotation
+constexpr int downloadTriangles = 2; // surface node positions and the triangles' force and contact-point sums
+
 // What a step call reports back to the facade.
 struct BackendCounters {
   unsigned long long values[counterCount] = {};
@@ -112,6 +116,9 @@ public:
   virtual void parametersChanged() {}
   // Brings stones, contact lists and surface outputs back into `data` (no-op for the CPU).
   virtual void download(HostData& data) = 0;
+  // Brings back only `parts` (downloadStones | downloadTriangles) of the state: what the facade's per-window accessors
+  // (stone states, triangle sums) need, without the contact lists, which dwarf them. Default: everything.
+  virtual void downloadParts(HostData& data, int /*parts*/) { download(data); }
   // One in-memory copy of the state arrays (visitStateArrays) where they live: the host arrays for the CPU, device
   // buffers for CUDA (no transfer). restoreSnapshot puts it back and keeps it.
   virtual void saveSnapshot(HostData& data) = 0;

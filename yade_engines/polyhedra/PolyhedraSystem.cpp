@@ -244,6 +244,7 @@ struct PolyhedraSystem::Implementation {
   std::string reason;
   bool started = false;
   bool hostCurrent = true; // host arrays hold the latest state
+  int partsCurrent = 0;     // parts of it downloaded since it last changed on the device (sync(parts))
   bool warnedDangerous = false;
   int lastSteps = 0;
   double time = 0.0;
@@ -295,6 +296,13 @@ struct PolyhedraSystem::Implementation {
       backend->download(data);
       hostCurrent = true;
     }
+  }
+  // Only `parts` of the state (downloadStones, downloadTriangles) current on the host: the accessors a coupling
+  // window calls every window. A later sync() still brings back everything.
+  void sync(int parts) {
+    if (hostCurrent || (partsCurrent & parts) == parts) return;
+    backend->downloadParts(data, parts & ~partsCurrent);
+    partsCurrent |= parts;
   }
 };
 
@@ -667,6 +675,7 @@ void PolyhedraSystem::step(int steps) {
   BackendCounters counters;
   m.backend->step(d, steps, counters);
   m.hostCurrent = m.active == Backend::Cpu;
+  m.partsCurrent = 0;
   if (counters.values[counterPairOverflow] > 0 || counters.values[counterWallOverflow] > 0) {
     std::ostringstream message;
     message << "neighbour list overflow:";
@@ -728,16 +737,16 @@ double PolyhedraSystem::criticalTimeStep(double normalForce, double impactVeloci
 }
 
 std::vector<double> PolyhedraSystem::positions() const {
-  implementation_->sync();
+  implementation_->sync(downloadStones);
   return implementation_->inUserOrder(implementation_->data.position, 3);
 }
 std::vector<double> PolyhedraSystem::velocities() const {
-  implementation_->sync();
+  implementation_->sync(downloadStones);
   return implementation_->inUserOrder(implementation_->data.velocity, 3);
 }
 std::vector<double> PolyhedraSystem::orientations() const {
   Implementation& m = *implementation_;
-  m.sync();
+  m.sync(downloadStones);
   std::vector<double> result(4 * m.data.rotation.size());
   for (std::size_t i = 0; i < m.data.rotation.size(); ++i) {
     const Quat& q = m.data.rotation[m.stored(i)].orientation;
@@ -747,7 +756,7 @@ std::vector<double> PolyhedraSystem::orientations() const {
 }
 std::vector<double> PolyhedraSystem::angularVelocities() const {
   Implementation& m = *implementation_;
-  m.sync();
+  m.sync(downloadStones);
   std::vector<double> result(3 * m.data.rotation.size());
   for (std::size_t i = 0; i < m.data.rotation.size(); ++i) {
     const Vec3& w = m.data.rotation[m.stored(i)].angularVelocity;
@@ -794,7 +803,7 @@ void PolyhedraSystem::setState(const std::vector<double>& positions, const std::
 
 std::vector<double> PolyhedraSystem::triangleForces() const {
   Implementation& m = *implementation_;
-  m.sync();
+  m.sync(downloadTriangles);
   std::vector<double> result(m.data.triangleForceSum.size(), 0.0);
   if (m.lastSteps > 0)
     for (std::size_t k = 0; k < result.size(); ++k) result[k] = m.data.triangleForceSum[k] / m.lastSteps;
@@ -803,7 +812,7 @@ std::vector<double> PolyhedraSystem::triangleForces() const {
 
 std::vector<double> PolyhedraSystem::triangleContactPoints() const {
   Implementation& m = *implementation_;
-  m.sync();
+  m.sync(downloadTriangles);
   const HostData& d = m.data;
   const int t = d.triangleCount();
   std::vector<double> result(3 * static_cast<std::size_t>(t), 0.0);
@@ -905,7 +914,8 @@ void PolyhedraSystem::restoreSnapshot() {
   d.forcesValid = s.forcesValid;
   m.statistics = s.statistics;
   d.nodeVelocity = s.nodeVelocity;
-  m.hostCurrent = m.active == Backend::Cpu; // the CUDA backend restored its device buffers
+  m.hostCurrent = m.active == Backend::Cpu;
+  m.partsCurrent = 0; // the CUDA backend restored its device buffers
 }
 
 bool PolyhedraSystem::hasSnapshot() const { return implementation_->snapshot.saved; }

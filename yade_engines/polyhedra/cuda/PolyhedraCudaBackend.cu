@@ -365,6 +365,21 @@ public:
     check(cudaStreamSynchronize(stream_), "surface upload");
   }
 
+  void downloadParts(HostData& d, int parts) override {
+    if (parts & downloadStones) {
+      position_.download(d.position, stream_);
+      velocity_.download(d.velocity, stream_);
+      rotation_.download(d.rotation, stream_);
+    }
+    if (parts & downloadTriangles) {
+      nodePosition_.download(d.nodePosition, stream_);
+      triangleForce_.download(d.triangleForceSum, stream_);
+      trianglePoint_.download(d.trianglePointSum, stream_);
+      triangleWeight_.download(d.triangleWeightSum, stream_);
+    }
+    check(cudaStreamSynchronize(stream_), "download");
+  }
+
   void download(HostData& d) override {
     position_.download(d.position, stream_);
     velocity_.download(d.velocity, stream_);

@@ -7,6 +7,7 @@
 #include "railcosim/ForceLumping.hpp"
 #include "railcosim/Participant.hpp"
 #include "railcosim/StateStream.hpp"
+#include "polyhedra/PolyhedraWindow.hpp"
 
 #include <core/Scene.hpp>
 
@@ -638,13 +639,9 @@ void FemCouplingEngine::polyhedraAction() {
 
 // The straight line the surface follows in the window: from the scheme's position at its start to that at its end.
 void FemCouplingEngine::startPolyhedraWindow() {
-  std::vector<double> end, unused;
-  coupling->surfaceAt(0.0, windowStartPositions, unused);
-  coupling->surfaceAt(femDt, end, unused);
-  windowVelocities.resize(end.size());
-  for (size_t k = 0; k < end.size(); ++k) windowVelocities[k] = (end[k] - windowStartPositions[k]) / femDt;
-  nodePositions.resize(end.size() / 3);
-  nodeVelocities.resize(end.size() / 3);
+  railcosim::polyhedra::beginSurfaceWindow(*coupling, femDt, windowStartPositions, windowVelocities);
+  nodePositions.resize(windowStartPositions.size() / 3);
+  nodeVelocities.resize(windowStartPositions.size() / 3);
   placeSurface(0, false);
 }
 
@@ -654,28 +651,12 @@ void FemCouplingEngine::advancePolyhedraWindow() {
   polyhedra->advanceWindow(windowStartPositions, windowVelocities, subcycles, triangleForces, contactPoints);
   polyhedraTime += secondsSince(stepping);
   const auto mapping = Clock::now();
-  // The window's points are means over the window of a surface moving linearly: lumped on its mid-window position.
-  std::vector<double> middle(windowStartPositions.size());
-  for (size_t k = 0; k < middle.size(); ++k) middle[k] = windowStartPositions[k] + 0.5 * femDt * windowVelocities[k];
-  std::fill(polyhedraForces.begin(), polyhedraForces.end(), 0.0);
-  long loaded = 0;
-  for (size_t t = 0; t < triangleForces.size() / 3; ++t) {
-    const std::array<double, 3> force{triangleForces[3 * t], triangleForces[3 * t + 1], triangleForces[3 * t + 2]};
-    if (force[0] == 0 && force[1] == 0 && force[2] == 0) continue;
-    railcosim::lumpPointForce(middle, interfaceTriangles, t,
-                              {contactPoints[3 * t], contactPoints[3 * t + 1], contactPoints[3 * t + 2]}, force,
-                              polyhedraForces);
-    ++loaded;
-  }
+  const long loaded = railcosim::polyhedra::lumpWindowForces(windowStartPositions, windowVelocities, femDt,
+                                                             interfaceTriangles, triangleForces, contactPoints,
+                                                             polyhedraForces);
   surfaceContacts = loaded;
   surfaceTouched = loaded > 0;
-  // The window's work on the DEM copy of the surface: Σ_steps F·V Δt_D with V constant over the window is the mean
-  // force times V times the window, exactly.
-  if (auditEnergy) {
-    Real work = 0;
-    for (size_t k = 0; k < polyhedraForces.size(); ++k) work += polyhedraForces[k] * windowVelocities[k];
-    interfaceWorkDem += work * femDt;
-  }
+  if (auditEnergy) interfaceWorkDem += railcosim::polyhedra::windowWork(polyhedraForces, windowVelocities, femDt);
   mappingTime += secondsSince(mapping);
 }
 

@@ -4,6 +4,7 @@
 #include "railcosim/StateStream.hpp"
 
 #include "../contact/BallastContact.hpp"
+#include "polyhedra/PolyhedraBodyFrames.hpp"
 #include "polyhedra/PolyhedraShapes.hpp"
 #include "polyhedra/PolyhedraSystem.hpp"
 #include "railcosim/Error.hpp"
@@ -29,7 +30,6 @@ PolyhedraSurfaceSource::~PolyhedraSurfaceSource() = default;
 
 namespace {
 namespace poly = railcosim::polyhedra;
-Quaternionr quaternion(const double* wxyz) { return Quaternionr(wxyz[0], wxyz[1], wxyz[2], wxyz[3]); }
 Vector3r toVector3r(const double* xyz) { return Vector3r(xyz[0], xyz[1], xyz[2]); }
 Vector3r toVector3r(const std::array<double, 3>& xyz) { return Vector3r(xyz[0], xyz[1], xyz[2]); }
 
@@ -155,33 +155,18 @@ void PolyhedraGpuEngine::initialize() {
   parameters.backend = parseBackend(backend);
   system = std::make_shared<poly::PolyhedraSystem>(parameters);
 
-  // 2. One template per distinct core and dilation (vertices in the body frame, compared exactly).
-  std::map<std::vector<double>, int> templateOf;
-  principalToBody.clear();
-  centroidInBody.clear();
+  // 2. One template per distinct core and dilation (vertices in the body frame, compared exactly; BodyFrameStones).
+  frames.clear();
   for (size_t i = 0; i < stoneIds.size(); ++i) {
     std::vector<double> vertices;
     for (const Vector3r& v : stoneCores[i])
       for (int k = 0; k < 3; ++k) vertices.push_back(v[k]);
     const double radius = stoneDilation[i] > 0 ? stoneDilation[i] : dilationRadius;
-    std::vector<double> key = vertices;
-    key.push_back(radius);
-    auto found = templateOf.find(key);
-    if (found == templateOf.end())
-      found = templateOf.emplace(key, system->addShape(poly::convexHullTemplate(vertices, radius, frict->density))).first;
-    const int shapeIndex = found->second;
-    const poly::ShapeProperties& props = system->shapeProperties(shapeIndex);
-    const Quaternionr toBody = quaternion(props.principalToGiven.data());
-    const Vector3r centroid(props.centroid[0], props.centroid[1], props.centroid[2]);
     State& s = *(*scene->bodies)[stoneIds[i]]->state;
-    s.mass = props.mass; // the dilated stone's, for momentum and energy sums over the YADE bodies
-    const Vector3r position = s.pos + s.ori * centroid;
-    const Quaternionr ori = s.ori * toBody;
-    const Vector3r velocity = s.vel + s.angVel.cross(position - s.pos);
-    system->addStone(shapeIndex, {position[0], position[1], position[2]}, {ori.w(), ori.x(), ori.y(), ori.z()},
-                     {velocity[0], velocity[1], velocity[2]}, {s.angVel[0], s.angVel[1], s.angVel[2]});
-    principalToBody.push_back(toBody);
-    centroidInBody.push_back(centroid);
+    const Quaternionr& o = s.ori;
+    frames.add(*system, vertices, radius, frict->density, {s.pos[0], s.pos[1], s.pos[2]}, {o.w(), o.x(), o.y(), o.z()},
+               {s.vel[0], s.vel[1], s.vel[2]}, {s.angVel[0], s.angVel[1], s.angVel[2]});
+    s.mass = frames.mass(i); // the dilated stone's, for momentum and energy sums over the YADE bodies
   }
 
   // 3. Walls: the facets (each facet's three vertices; shared nodes need not be merged), then the coupled surface.
@@ -230,7 +215,7 @@ void PolyhedraGpuEngine::initialize() {
   }
 
   stones = static_cast<int>(stoneIds.size());
-  shapes = static_cast<int>(templateOf.size());
+  shapes = frames.templates();
   wallTriangles = static_cast<int>(triangles.size() / 3);
   activeBackend = poly::backendName(system->activeBackend());
   backendReason = system->backendReason();
@@ -248,15 +233,15 @@ void PolyhedraGpuEngine::requireSystem(const char* what) const {
 void PolyhedraGpuEngine::syncBack() {
   const std::vector<double> p = system->positions(), q = system->orientations(), v = system->velocities(),
                             w = system->angularVelocities();
+  std::array<double, 3> position, velocity, angularVelocity;
+  std::array<double, 4> ori;
   for (size_t i = 0; i < stoneIds.size(); ++i) {
+    frames.bodyState(i, p, q, v, w, position, ori, velocity, angularVelocity);
     State& s = *(*scene->bodies)[stoneIds[i]]->state;
-    const Vector3r position(p[3 * i], p[3 * i + 1], p[3 * i + 2]);
-    const Quaternionr ori = quaternion(&q[4 * i]);
-    const Vector3r angularVelocity(w[3 * i], w[3 * i + 1], w[3 * i + 2]);
-    s.ori = (ori * principalToBody[i].conjugate()).normalized();
-    s.pos = position - s.ori * centroidInBody[i];
-    s.angVel = angularVelocity;
-    s.vel = Vector3r(v[3 * i], v[3 * i + 1], v[3 * i + 2]) + angularVelocity.cross(s.pos - position);
+    s.ori = Quaternionr(ori[0], ori[1], ori[2], ori[3]);
+    s.pos = toVector3r(position);
+    s.angVel = toVector3r(angularVelocity);
+    s.vel = toVector3r(velocity);
   }
 }
 

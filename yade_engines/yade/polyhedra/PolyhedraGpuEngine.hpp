@@ -6,6 +6,8 @@
 #include <core/Material.hpp>
 
 #include <memory>
+
+#include "polyhedra/PolyhedraBodyFrames.hpp"
 #include <string>
 #include <vector>
 
@@ -138,8 +140,7 @@ private:
   std::vector<Real> stoneDilation;               // r_d per stone [m]; < 0: dilationRadius
   std::vector<double> facetNodeVelocities;       // [m/s], 3 per facet node (setWallVelocity)
   bool facetsMove = false;
-  std::vector<Quaternionr> principalToBody;      // rotation from the stone's principal frame to the YADE body frame
-  std::vector<Vector3r> centroidInBody;          // stone centroid in the YADE body frame
+  railcosim::polyhedra::BodyFrameStones frames; // the stones' YADE body frames <-> the system's principal frames
   // Wall mesh: the facets' triangles (three nodes each, at rest), then the coupled surface's.
   std::vector<Body::id_t> facetOfTriangle; // per facet triangle
   std::vector<double> facetNodes;          // 3 per node

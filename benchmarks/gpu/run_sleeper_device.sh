@@ -1,0 +1,48 @@
+#!/usr/bin/env bash
+# Runs the sleeper-on-ballast case on a GPU machine without YADE (docs/benchmarks.md, "Sleeper on ballast on the GPU
+# machine"): the standalone DEM driver (dem_driver=standalone) on the CUDA backend, FreeFEM from the archive
+# pack_sleeper_device.sh made, through the case runner (tools/run_case.py) as on the desk: the same case, larger.
+# Usage (repository root, on the GPU machine): benchmarks/gpu/run_sleeper_device.sh OUTDIR [runner options ...]
+#   e.g. ... OUTDIR --set stones=0 --set bed_width_m=1.0 --set cycles=100      (the seed's scene, README)
+# Environment: RUNTIME_ARCHIVE (default build/device-runtime.tgz), RUNTIME_DIR (where it is unpacked, default a
+# folder under /tmp), RAILCOSIM_CACHE (where bed files are kept, default OUTDIR/cache), THREADS (OpenMP threads of
+# the DEM process, default the cores), PYTHON (default python3). Writes OUTDIR/run (the results
+# folder: summary.json, timeseries.h5, plots, logs) and OUTDIR/device.txt. A bed preparation stopped by the time limit
+# resumes after its last finished stage when run again with the same cache (preparation.StageCheckpoints).
+set -euo pipefail
+out=${1:?usage: run_sleeper_device.sh OUTDIR [runner options ...]}
+shift
+root=$(pwd)
+mkdir -p "$out"
+out=$(cd "$out" && pwd)
+runtime=${RUNTIME_DIR:-/tmp/railcosim-runtime}
+if [ ! -x "$runtime/runtime/freefem/FreeFem++" ]; then
+  mkdir -p "$runtime"
+  tar -C "$runtime" -xzf "${RUNTIME_ARCHIVE:-build/device-runtime.tgz}"
+fi
+rt=$runtime/runtime
+# FreeFEM sees its own library closure; Python (the runner, the DEM driver) only the driver's (ZeroMQ).
+mkdir -p "$rt/bin"
+cat > "$rt/bin/FreeFem++" <<WRAPPER
+#!/usr/bin/env bash
+LD_LIBRARY_PATH="$rt/lib" exec "$rt/freefem/FreeFem++" "\$@"
+WRAPPER
+chmod +x "$rt/bin/FreeFem++"
+export PATH="$rt/bin:$PATH"
+export LD_LIBRARY_PATH="$rt/driverlib${LD_LIBRARY_PATH:+:$LD_LIBRARY_PATH}"
+export FF_LOADPATH="$rt/freefem/plugins;./"
+export FF_INCLUDEPATH="$root/freefem_scripts/lib;$rt/freefem/idp;./"
+export RAILCOSIM_ROOT=$root RAILCOSIM_CACHE="${RAILCOSIM_CACHE:-$out/cache}" PYTHONPATH="$root/python"
+export RAILCOSIM_POLYHEDRA_DRIVER="$rt/librailcosim_polyhedra_driver.so"
+{
+  nvidia-smi --query-gpu=name,driver_version,memory.total --format=csv,noheader || true
+  echo "cores: $(nproc); python: $(${PYTHON:-python3} --version)"
+} | tee "$out/device.txt"
+start=$(date +%s)
+set +e
+${PYTHON:-python3} "$root/tools/run_case.py" "$root/cases/sleeper_on_ballast" --out "$out/run" --force \
+  --set dem_driver=standalone --set polyhedra_backend=cuda --set "dem_threads=${THREADS:-$(nproc)}" "$@"
+code=$?
+set -e
+echo "runner exit $code after $(( $(date +%s) - start )) s" | tee -a "$out/device.txt"
+exit $code

@@ -1,0 +1,107 @@
+# DEM participant of the sleeper-on-ballast case without YADE (dem_driver = "standalone"): the same load run as dem.py,
+# on the polyhedra library through its C interface (railcosim.polyhedra_driver), one coupling window per call as
+# FemCouplingEngine with contactModel 'polyhedra' runs it; the GPU machine's path (no YADE there).
+# Run by `railcosim run` as: python3 dem_driver.py PARAMETERS.json ENDPOINT OUTDIR (after bed.py, which leaves bed.json)
+import json
+import os
+import sys
+import time
+
+import numpy as np
+
+HERE = os.path.dirname(os.path.abspath(__file__))
+sys.path[:0] = [HERE, os.path.join(os.path.dirname(os.path.dirname(HERE)), "python")]
+import driver_engine as de  # noqa: E402
+import loadrun  # noqa: E402
+import preparation as prep  # noqa: E402
+import scene as sc  # noqa: E402
+from railcosim import dem as coupled_dem  # noqa: E402  (coupling options; YADE-free)
+from railcosim import results, solvers  # noqa: E402
+
+if len(sys.argv) != 4:
+    raise SystemExit("usage: python3 dem_driver.py PARAMETERS.json ENDPOINT OUTDIR (started by railcosim run)")
+parameters_path, endpoint, out = sys.argv[1:]
+with open(parameters_path) as f:
+    p = json.load(f)
+scene = sc.build(p)
+with open(os.path.join(out, "bed.json")) as f:
+    bed_record = json.load(f)
+bed, attrs = prep.load(bed_record["path"])
+duration = sc.load_run_duration(p)
+
+# 1.-2. The box and the prepared bed: stones and the five sensor blocks (dem.py's scene, loadrun's walls).
+seat = float(attrs["seat_height_m"])
+engine = de.polyhedra_bed(scene, bed, p, 1e-6)
+corners = loadrun.wall_corners(scene, seat)
+engine.set_walls(corners, np.zeros(len(corners), np.int32), [prep.stone_material(scene)[1]])
+stones = np.flatnonzero(bed.kind == prep.STONE)
+# 3. Time step, before the surface joins the walls (as dem.py's probe engine).
+engine.dt, critical, design = loadrun.time_step(p, scene, engine.critical_time_step)
+# 4. Couple: the sleeper's bottom face joins the walls; each window is one batch.
+options = coupled_dem.coupling_options(p)
+subcycles = engine.connect(endpoint, scheme=options["scheme"], surface_material=loadrun.sleeper_material(p),
+                           timeout=options["timeout"], subcycles=options.get("subcycles", 0),
+                           implicit_tolerance=options["implicitTolerance"],
+                           implicit_max_iterations=options["implicitMaxIterations"],
+                           implicit_relaxation=options["implicitRelaxation"], aitken=options["aitken"])
+figures = engine.figures()
+windows = int(round(duration / figures["window_length"]))
+mass = float(np.sum(engine.states()[4][stones]))
+backend, reason = engine.backend
+sensors = loadrun.Sensors(p, scene, bed)
+print(f"{len(stones)} stones ({mass:.1f} kg) and {len(sensors.indices)} sensors from {bed_record['path']}; sleeper "
+      f"bottom at z = {seat:.4f} m; dt {engine.dt:.3e} s = {engine.dt / critical:.3f} x the critical step "
+      f"{critical:.3e} s (contacts of {design['contact_force_n']:.0f} N, impacts at {design['impact_speed_m_s']:g} m/s); "
+      f"{backend} ({reason})", flush=True)
+print(f"coupled: dt={engine.dt:.3e} s, {subcycles} DEM steps per FEM step, {windows} windows ({options['scheme']}, "
+      f"{int(figures['surface_triangles'])} surface triangles, polyhedra contacts, standalone driver)", flush=True)
+
+
+class Window:
+    """What loadrun.Sensors reads of a window, from the driver."""
+
+    def frames(self, indices):
+        return engine.states(indices)[:2]
+
+    def contacts(self):
+        return engine.contacts()
+
+    @property
+    def interface_force(self):
+        return [figures[f"total_force_{k}"] for k in "xyz"]
+
+    @property
+    def surface_force(self):
+        return [figures[f"surface_force_{k}"] for k in "xyz"]
+
+
+window = Window()
+recorder = results.DemRecorder(out)
+every = solvers.progress_period({**p, "duration_s": duration})
+wall_start = time.monotonic()
+for w in range(windows):
+    engine.window()
+    figures = engine.figures()
+    recorder.append(time=figures["time"], **sensors.record(window, w + 1), interface_work_dem=figures["interface_work_dem"],
+                    interface_work_fem=figures["interface_work_fem"])
+    if (w + 1) % every == 0:
+        print(f"t={figures['time']:.4f} s  window {w + 1}/{windows}  sleeper carried "
+              f"{figures['total_force_z'] / 1e3:.2f} kN  {time.monotonic() - wall_start:.1f} s", flush=True)
+engine.finalize()
+wall_time = time.monotonic() - wall_start
+# 5. What the post-processing reads (dem_info.json): dem.py's fields, the coupling figures under FemCouplingEngine's names.
+info = {"subcycles": subcycles, "exchanges": int(figures["windows"]), "scheme": options["scheme"],
+        "bridge_time_s": figures["bridge_time"], "mapping_time_s": figures["mapping_time"],
+        "wait_time_s": figures["wait_time"], "interface_work_dem_j": figures["interface_work_dem"],
+        "interface_work_fem_j": figures["interface_work_fem"], "implicit_passes": int(figures["implicit_passes"]),
+        "max_window_passes": int(figures["max_window_passes"]),
+        "unconverged_windows": int(figures["unconverged_windows"]), "checkpoint_time_s": figures["checkpoint_time"],
+        "restart_checkpoint_time_s": 0.0, "steps": windows * subcycles, "dt": engine.dt, "wall_time_s": wall_time,
+        "particles": len(stones), "stones": len(stones), "sensors": len(sensors.indices), "particle_mass_kg": mass,
+        "critical_time_step_s": critical, "design_contact_force_n": design["contact_force_n"], "seat_height_m": seat,
+        "sensor_period_windows": sensors.every, "polyhedra_backend": backend, "dem_driver": de.DRIVER,
+        "polyhedra_time_s": figures["polyhedra_time"], "bed": bed_record}
+results.save_dem_outputs(out, recorder, info)
+print(f"done: {windows * subcycles} steps in {wall_time:.1f} s; DEM {figures['polyhedra_time']:.1f} s, FEM wait "
+      f"{figures['wait_time']:.1f} s, bridge {figures['bridge_time']:.3f} s over {int(figures['windows'])} exchanges",
+      flush=True)

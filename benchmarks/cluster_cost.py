@@ -1,0 +1,309 @@
+"""Benchmark: cost per stone-step of railcosim's cluster path against stock YADE clumps with Hertz-Mindlin.
+
+USAGE:   ./railcosim yade [-jN] benchmarks/cluster_cost.py [--stones 500] [--steps 1000] [--repeats 3] [--json PATH]
+         (`./railcosim bench clusters` runs it with one and with two OpenMP threads into one record file)
+OUTPUTS: a table per run (µs per stone-step and per sphere-step, the engines' shares, contacts per stone) and the
+         ratio of each path to stock YADE; JSON records only with --json, merged by thread count into that file.
+
+Bed: library sphere clusters (yade_engines/clusters, "coarse": 8-15 spheres per stone, as the beam case's
+particle_shape = "cluster"), sieve sizes uniform in [0.85, 1.15] x --size, principal axes on a box lattice with random
+half turns, dropped into a square box (frictional floor, frictionless side walls, so that the floor carries the whole
+weight) and settled once on the railcosim path (10 g with Cundall damping, then 1 g, then undamped). That state is
+saved; each timed run restores it, clears the contacts (every path starts its contact histories afresh), puts its own
+materials on the bodies and its own engines in place, runs --warmup steps, then --steps timed steps, then samples the
+floor force over --sample steps. The paths, in the same scene, time step, gravity and thread count:
+  railcosim       QuaternionIntegrator (Zhao-van Wachem) + BallastMat + Law2_ScGeom_BallastPhys_Ballast, smooth
+                  Hertz-Mindlin with Thornton damping from e (docs/contact-models.md);
+  railcosim_full  the same with Pohrt-Popov plastic normal law, stress-dependent friction and a rolling arm (the sub-
+                  models the law can switch on; BoundedRollingFrictionEngine acts on standalone spheres only, never on
+                  clumps, so it has no part in a cluster bed);
+  stock           NewtonIntegrator + FrictMat + Ip2_FrictMat_FrictMat_MindlinPhys(en = es = e) +
+                  Law2_ScGeom_MindlinPhys_Mindlin.
+The repetitions run the paths in turn, so that each ratio compares runs taken under the same machine load.
+Physics check (not timing): for each run the floor force must equal the bed's weight, and the settled bed's mean
+stone height must agree between railcosim and stock; a mismatch is reported and the script exits with status 1 after
+writing its records. Timing never fails it.
+"""
+import argparse
+import datetime
+import json
+import math
+import os
+import random
+import statistics
+import sys
+import time
+
+import numpy as np
+
+sys.path.insert(0, os.path.join(os.environ["RAILCOSIM_ROOT"], "yade_engines", "clusters"))
+import ballast_clusters  # noqa: E402
+import pack_ballast  # noqa: E402
+
+parser = argparse.ArgumentParser()
+parser.add_argument("--stones", type=int, default=500)
+parser.add_argument("--size", type=float, default=0.04, help="mean sieve size [m]")
+parser.add_argument("--box", type=float, default=0.3, help="side of the square box [m]")
+parser.add_argument("--steps", type=int, default=1000, help="timed steps per run")
+parser.add_argument("--warmup", type=int, default=200, help="steps after the restore, not timed")
+parser.add_argument("--sample", type=int, default=100, help="steps over which the floor force is averaged")
+parser.add_argument("--repeats", type=int, default=3)
+parser.add_argument("--seed", type=int, default=1)
+parser.add_argument("--json", default=None, help="merge the records into this file (none by default)")
+args = parser.parse_args(sys.argv[1:])
+
+young, poisson, density, friction, restitution = 1e8, 0.25, 2600.0, 0.6, 0.3
+gravity = 9.81
+level = "coarse"
+# Physics limits. Floor force: after the restore the bed re-forms its contacts with fresh tangential histories and
+# re-settles by a fraction of an overlap; the inertial part of the floor force left by then is below 2 % of the weight
+# (measured 0.1-0.6 %), and the floor carries the whole weight because the side walls are frictionless (YADE's walls
+# take no tangential force then). Mean height: the two laws share Hertz's normal stiffness between stones (the stock
+# Ip2 takes the sphere's radius for a wall, half the railcosim R*, which lifts the floor overlaps by 2^(1/3) ~ 26 %,
+# i.e. a few micrometres) and differ in the dashpots' mass (stock: the member sphere's, railcosim: the clump's), so
+# the re-settled beds may differ by a little rearrangement; 2 % of a stone size is far below a change of packing.
+FLOOR_FORCE_TOLERANCE = 0.02
+HEIGHT_TOLERANCE = 0.02
+
+threads = O.numThreads
+rng = random.Random(args.seed)
+library = ballast_clusters.loadShapeLibrary()
+templates = [(s["clusters"][level]["spheres"], s["clusters"][level]["volume"], s["clusters"][level]["principalInertia"])
+             for s in library["shapes"]]
+extent_of = [np.max(np.abs(t[0][:, :3]) + t[0][:, 3:4], axis=0) for t in templates]
+
+
+def build_bed():
+    """Stones on a box lattice above the floor (long axes along y, random half turns), walls; returns clump ids."""
+    O.reset()
+    mat = O.materials.append(BallastMat(young=young, poisson=poisson, density=density, frictionAngle=math.atan(friction),
+                                        restitution=restitution, label="stones"))
+    wall_mat = O.materials.append(BallastMat(young=young, poisson=poisson, density=density, frictionAngle=0.0,
+                                             restitution=restitution, label="walls"))
+    floor = O.bodies.append(utils.wall(position=0.0, axis=2, sense=1, material=mat))
+    side = args.box
+    for axis, position, sense in ((0, 0.0, 1), (0, side, -1), (1, 0.0, 1), (1, side, -1)):
+        O.bodies.append(utils.wall(position=position, axis=axis, sense=sense, material=wall_mat))
+    sizes = [args.size * rng.uniform(0.85, 1.15) for _ in range(args.stones)]
+    kinds = [rng.randrange(len(templates)) for _ in range(args.stones)]
+    half = np.max([extent_of[k][[1, 0, 2]] * d for k, d in zip(kinds, sizes)], axis=0) * 1.05
+    nx, ny = int(side / (2 * half[0])), int(side / (2 * half[1]))
+    if nx < 1 or ny < 1:
+        raise ValueError(f"cluster_cost: box {side} m is narrower than one stone")
+    across = Quaternion((0, 0, 1), 0.5 * math.pi)
+    half_turns = [Quaternion.Identity, Quaternion((1, 0, 0), math.pi), Quaternion((0, 1, 0), math.pi),
+                  Quaternion((0, 0, 1), math.pi)]
+    clumps = []
+    for k, (kind, size) in enumerate(zip(kinds, sizes)):
+        layer, cell = divmod(k, nx * ny)
+        i, j = divmod(cell, ny)
+        centre = (side * (i + 0.5) / nx, side * (j + 0.5) / ny, half[2] * (2 * layer + 1) + 0.002)
+        turn = across * half_turns[rng.randrange(4)]
+        rotation = np.array([[turn.toRotationMatrix()[a, b] for b in range(3)] for a in range(3)])
+        spheres, unit_volume, inertia = templates[kind]
+        stone = {"rotation": rotation, "spheres": spheres * size, "mass": density * unit_volume * size ** 3,
+                 "principalInertia": density * inertia * size ** 5}
+        clumps.append(pack_ballast.addClusterStone(stone, centre, O.materials[mat]))
+    return floor, clumps, min(sizes)
+
+
+def railcosim_engines(damping, g):
+    return [ForceResetter(),
+            InsertionSortCollider([Bo1_Sphere_Aabb(), Bo1_Wall_Aabb()]),
+            InteractionLoop([Ig2_Sphere_Sphere_ScGeom(), Ig2_Wall_Sphere_ScGeom()],
+                            [Ip2_BallastMat_BallastMat_BallastPhys()], [Law2_ScGeom_BallastPhys_Ballast()]),
+            QuaternionIntegrator(damping=damping, gravity=(0, 0, -g), scheme="zhaoVanWachem")]
+
+
+def stock_engines():
+    return [ForceResetter(),
+            InsertionSortCollider([Bo1_Sphere_Aabb(), Bo1_Wall_Aabb()]),
+            InteractionLoop([Ig2_Sphere_Sphere_ScGeom(), Ig2_Wall_Sphere_ScGeom()],
+                            [Ip2_FrictMat_FrictMat_MindlinPhys(en=MatchMaker(algo="val", val=restitution),
+                                                               es=MatchMaker(algo="val", val=restitution))],
+                            [Law2_ScGeom_MindlinPhys_Mindlin()]),
+            NewtonIntegrator(damping=0.0, gravity=(0, 0, -gravity))]
+
+
+# The paths: (materials for stones and side walls, engines).
+PATHS = {
+    "railcosim": (lambda fa: BallastMat(young=young, poisson=poisson, density=density, frictionAngle=fa,
+                                        restitution=restitution),
+                  lambda: railcosim_engines(0.0, gravity)),
+    "railcosim_full": (lambda fa: BallastMat(young=young, poisson=poisson, density=density, frictionAngle=fa,
+                                             restitution=restitution, roughnessFractalDim=2.2, roughnessRms=2e-6,
+                                             plasticUnloading=True, frictionExponent=-0.1, maxContactStress=5e6,
+                                             rollingFriction=0.2),
+                       lambda: railcosim_engines(0.0, gravity)),
+    "stock": (lambda fa: FrictMat(young=young, poisson=poisson, density=density, frictionAngle=fa),
+              stock_engines),
+}
+
+
+def bed_state(clumps, floor_force):
+    mass = sum(O.bodies[c].state.mass for c in clumps)
+    heights = [O.bodies[c].state.pos[2] for c in clumps]
+    return {"weight_n": mass * gravity, "floor_force_n": floor_force,
+            "floor_force_over_weight": floor_force / (mass * gravity),
+            "mean_height_m": statistics.fmean(heights),
+            "potential_energy_j": sum(O.bodies[c].state.mass * gravity * O.bodies[c].state.pos[2] for c in clumps),
+            "max_speed_m_s": max(O.bodies[c].state.vel.norm() for c in clumps)}
+
+
+def contact_counts(clumps):
+    """Sphere contacts (each counted once; between stones, and with the walls) and touching stone pairs per stone."""
+    member_contacts, pairs = 0, set()
+    for i in O.interactions:
+        if not i.isReal:
+            continue
+        member_contacts += 1
+        b1, b2 = O.bodies[i.id1], O.bodies[i.id2]
+        if b1.isClumpMember and b2.isClumpMember:
+            pairs.add((min(b1.clumpId, b2.clumpId), max(b1.clumpId, b2.clumpId)))
+    return member_contacts / len(clumps), len(pairs) / len(clumps)
+
+
+def floor_force(floor, steps):
+    """Mean vertical force of the stones on the floor over `steps` steps [N] (forces persist until the next step)."""
+    total = 0.0
+    for _ in range(steps):
+        O.step()
+        total += -O.forces.f(floor)[2]
+    return total / steps
+
+
+# 1. The bed, settled once on the railcosim path.
+floor, clumps, smallest = build_bed()
+members = sum(1 for b in O.bodies if b.isClumpMember)
+# The stone's P-wave step, as the beam case takes it for clusters (cases/beam_uniform_load/dem.py): a contact on a
+# member moves the whole stone.
+O.dt = 0.3 * 0.5 * smallest * math.sqrt(density / young)
+start = time.perf_counter()
+# Frictionless deposition (Tran's gravitational packing, yade_engines/clusters/pack_ballast.py) packs the lattice's
+# columns down without jamming, undamped in the fall (Cundall damping would halve gravity), quenched once down; then
+# the stones get their friction and come to rest, first with Cundall damping, then without.
+stone_mat = next(b.mat for b in O.bodies if b.isClumpMember)
+stone_mat.frictionAngle = 0.0
+fall = math.sqrt(2.0 * max(O.bodies[c].state.pos[2] for c in clumps) / gravity)
+for duration, damping, mu in ((fall + 0.05, 0.0, 0.0), (0.05, 0.3, 0.0), (0.05, 0.3, friction), (0.05, 0.0, friction)):
+    if math.atan(mu) != stone_mat.frictionAngle:
+        stone_mat.frictionAngle = math.atan(mu)
+        O.interactions.clear()  # the contacts' physics take the new friction
+    O.engines = railcosim_engines(damping, gravity)
+    O.run(int(duration / O.dt), True)
+settle_s = time.perf_counter() - start
+settled = bed_state(clumps, floor_force(floor, args.sample))
+print(f"bed: {len(clumps)} stones, {members} spheres, dt {O.dt:.3e} s, settled in {O.iter} steps ({settle_s:.0f} s wall): "
+      f"mean height {settled['mean_height_m']:.4f} m, floor force / weight {settled['floor_force_over_weight']:.4f}, "
+      f"max speed {settled['max_speed_m_s']:.2e} m/s", flush=True)
+O.saveTmp("settled")
+
+
+def timed_run(path):
+    """Restores the settled bed, puts the path's materials and engines in place, times it; returns its record."""
+    O.loadTmp("settled")
+    make_material, make_engines = PATHS[path]
+    stone_mat = O.materials.append(make_material(math.atan(friction)))
+    wall_mat = O.materials.append(make_material(0.0))
+    for b in O.bodies:
+        if b.isClump:
+            continue
+        b.mat = O.materials[wall_mat] if (isinstance(b.shape, Wall) and b.id != floor) else O.materials[stone_mat]
+    O.interactions.clear()
+    O.engines = make_engines()
+    O.run(args.warmup, True)
+    O.timingEnabled = True
+    for e in O.engines:
+        e.execTime = 0
+    start = time.perf_counter()
+    O.run(args.steps, True)
+    wall = time.perf_counter() - start
+    engines_ns = {e.__class__.__name__: e.execTime for e in O.engines}
+    O.timingEnabled = False
+    per_stone, pairs_per_stone = contact_counts(clumps)
+    physics = bed_state(clumps, floor_force(floor, args.sample))
+    stone_steps = args.steps * len(clumps)
+    return {"path": path, "wall_s": wall, "us_per_stone_step": 1e6 * wall / stone_steps,
+            "us_per_sphere_step": 1e6 * wall / (args.steps * members),
+            "engines_us_per_stone_step": {k: 1e-3 * v / stone_steps for k, v in engines_ns.items()},
+            "sphere_contacts_per_stone": per_stone, "touching_stones_per_stone": pairs_per_stone, **physics}
+
+
+runs = []
+for repeat in range(args.repeats):
+    for path in PATHS:
+        record = timed_run(path)
+        record["repeat"] = repeat
+        runs.append(record)
+        print(f"  repeat {repeat} {path:<15} {record['us_per_stone_step']:7.2f} us/stone-step "
+              f"({record['wall_s']:.1f} s), floor/weight {record['floor_force_over_weight']:.4f}, "
+              f"mean height {record['mean_height_m']:.4f} m", flush=True)
+
+
+def spread(values):
+    return {"median": statistics.median(values), "min": min(values), "max": max(values)}
+
+
+summary = {}
+for path in PATHS:
+    mine = [r for r in runs if r["path"] == path]
+    stock = [r for r in runs if r["path"] == "stock"]
+    summary[path] = {
+        "us_per_stone_step": spread([r["us_per_stone_step"] for r in mine]),
+        "us_per_sphere_step": spread([r["us_per_sphere_step"] for r in mine]),
+        "ratio_to_stock": spread([a["us_per_stone_step"] / b["us_per_stone_step"] for a, b in zip(mine, stock)]),
+        "engines_us_per_stone_step": {k: statistics.median([r["engines_us_per_stone_step"][k] for r in mine])
+                                      for k in mine[0]["engines_us_per_stone_step"]},
+        "sphere_contacts_per_stone": statistics.median([r["sphere_contacts_per_stone"] for r in mine]),
+        "touching_stones_per_stone": statistics.median([r["touching_stones_per_stone"] for r in mine]),
+    }
+
+# Physics check: the same bed on every path.
+problems = []
+for r in runs:
+    if abs(r["floor_force_over_weight"] - 1.0) > FLOOR_FORCE_TOLERANCE:
+        problems.append(f"{r['path']} repeat {r['repeat']}: floor force / weight {r['floor_force_over_weight']:.4f}")
+for a, b in zip([r for r in runs if r["path"] == "railcosim"], [r for r in runs if r["path"] == "stock"]):
+    if abs(a["mean_height_m"] - b["mean_height_m"]) > HEIGHT_TOLERANCE * args.size:
+        problems.append(f"repeat {a['repeat']}: mean height railcosim {a['mean_height_m']:.5f} m, "
+                        f"stock {b['mean_height_m']:.5f} m")
+
+load = os.getloadavg()
+print(f"\n{len(clumps)} stones ({members} spheres), {args.steps} steps of {O.dt:.3e} s, {threads} thread(s), "
+      f"{args.repeats} repeats, load {load[0]:.1f}")
+print(f"{'path':<15} {'us/stone-step':>22} {'us/sphere-step':>15} {'ratio to stock':>22} {'contacts/stone':>15} "
+      f"{'loop':>6} {'integr.':>8} {'collider':>9}")
+for path, s in summary.items():
+    e = s["engines_us_per_stone_step"]
+    integrator = e.get("QuaternionIntegrator", e.get("NewtonIntegrator"))
+    print(f"{path:<15} {s['us_per_stone_step']['median']:8.2f} ({s['us_per_stone_step']['min']:.2f}-"
+          f"{s['us_per_stone_step']['max']:.2f}) {s['us_per_sphere_step']['median']:15.3f} "
+          f"{s['ratio_to_stock']['median']:8.2f} ({s['ratio_to_stock']['min']:.2f}-{s['ratio_to_stock']['max']:.2f}) "
+          f"{s['sphere_contacts_per_stone']:15.2f} {e['InteractionLoop']:6.2f} {integrator:8.2f} "
+          f"{e['InsertionSortCollider']:9.2f}")
+print("physics check:", "PASS" if not problems else "MISMATCH\n  " + "\n  ".join(problems))
+
+if args.json:
+    path = os.path.abspath(args.json)
+    os.makedirs(os.path.dirname(path), exist_ok=True)
+    document = {"benchmark": "cluster_cost", "by_threads": {}}
+    if os.path.exists(path):
+        with open(path) as f:
+            previous = json.load(f)
+        if previous.get("benchmark") == "cluster_cost":
+            document = previous
+    document["by_threads"][str(threads)] = {
+        "date": datetime.date.today().isoformat(), "load_average_1_5_15": load, "threads": threads,
+        "stones": len(clumps), "spheres": members, "cluster_level": level, "mean_sieve_size_m": args.size,
+        "box_m": args.box, "time_step_s": O.dt, "steps": args.steps, "warmup_steps": args.warmup,
+        "repeats": args.repeats, "settled": settled,
+        "materials": {"young_pa": young, "poisson": poisson, "density_kg_m3": density, "friction": friction,
+                      "restitution": restitution},
+        "physics_check": {"floor_force_tolerance": FLOOR_FORCE_TOLERANCE, "height_tolerance_of_size": HEIGHT_TOLERANCE,
+                          "problems": problems},
+        "summary": summary, "runs": runs}
+    with open(path, "w") as f:
+        json.dump(document, f, indent=2)
+    print("written", path)
+if problems:
+    sys.exit(1)

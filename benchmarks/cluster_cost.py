@@ -1,6 +1,6 @@
 """Benchmark: cost per stone-step of railcosim's cluster path against stock YADE clumps with Hertz-Mindlin.
 
-USAGE:   ./railcosim yade [-jN] benchmarks/cluster_cost.py [--stones 500] [--steps 1000] [--repeats 3] [--json PATH]
+USAGE:   ./railcosim yade [-jN] benchmarks/cluster_cost.py [--stones 500] [--steps 600] [--repeats 3] [--json PATH]
          (`./railcosim bench clusters` runs it with one and with two OpenMP threads into one record file)
 OUTPUTS: a table per run (µs per stone-step and per sphere-step, the engines' shares, contacts per stone) and the
          ratio of each path to stock YADE; JSON records only with --json, merged by thread count into that file.
@@ -44,11 +44,12 @@ parser = argparse.ArgumentParser()
 parser.add_argument("--stones", type=int, default=500)
 parser.add_argument("--size", type=float, default=0.04, help="mean sieve size [m]")
 parser.add_argument("--box", type=float, default=0.3, help="side of the square box [m]")
-parser.add_argument("--steps", type=int, default=1000, help="timed steps per run")
+parser.add_argument("--steps", type=int, default=600, help="timed steps per run")
 parser.add_argument("--warmup", type=int, default=200, help="steps after the restore, not timed")
 parser.add_argument("--sample", type=int, default=100, help="steps over which the floor force is averaged")
 parser.add_argument("--repeats", type=int, default=3)
 parser.add_argument("--seed", type=int, default=1)
+parser.add_argument("--bed", default=None, help="settled bed file (.yade.gz): read if there, else written")
 parser.add_argument("--json", default=None, help="merge the records into this file (none by default)")
 args = parser.parse_args(sys.argv[1:])
 
@@ -172,26 +173,41 @@ def floor_force(floor, steps):
     return total / steps
 
 
-# 1. The bed, settled once on the railcosim path.
-floor, clumps, smallest = build_bed()
-members = sum(1 for b in O.bodies if b.isClumpMember)
-# The stone's P-wave step, as the beam case takes it for clusters (cases/beam_uniform_load/dem.py): a contact on a
-# member moves the whole stone.
-O.dt = 0.3 * 0.5 * smallest * math.sqrt(density / young)
+# 1. The bed, settled once on the railcosim path (or read from --bed, where an earlier run of the same arguments left
+#    it: `railcosim bench clusters` settles one bed for its one- and two-thread runs).
+bed_key = {k: getattr(args, k) for k in ("stones", "size", "box", "seed")}
 start = time.perf_counter()
-# Frictionless deposition (Tran's gravitational packing, yade_engines/clusters/pack_ballast.py) packs the lattice's
-# columns down without jamming, undamped in the fall (Cundall damping would halve gravity), quenched once down; then
-# the stones get their friction and come to rest, first with Cundall damping, then without.
-stone_mat = next(b.mat for b in O.bodies if b.isClumpMember)
-stone_mat.frictionAngle = 0.0
-fall = math.sqrt(2.0 * max(O.bodies[c].state.pos[2] for c in clumps) / gravity)
-for duration, damping, mu in ((fall + 0.05, 0.0, 0.0), (0.05, 0.3, 0.0), (0.05, 0.3, friction), (0.05, 0.0, friction)):
-    if math.atan(mu) != stone_mat.frictionAngle:
-        stone_mat.frictionAngle = math.atan(mu)
-        O.interactions.clear()  # the contacts' physics take the new friction
-    O.engines = railcosim_engines(damping, gravity)
-    O.run(int(duration / O.dt), True)
+if args.bed and os.path.exists(args.bed):
+    O.load(args.bed)
+    if json.loads(O.tags["cluster_cost_bed"]) != bed_key:
+        raise ValueError(f"cluster_cost: the bed in {args.bed} was settled for {O.tags['cluster_cost_bed']}, "
+                         f"not {json.dumps(bed_key)}")
+    floor = 0  # the first body build_bed appends
+    clumps = [b.id for b in O.bodies if b.isClump]
+else:
+    floor, clumps, smallest = build_bed()
+    # The stone's P-wave step, as the beam case takes it for clusters (cases/beam_uniform_load/dem.py): a contact on a
+    # member moves the whole stone.
+    O.dt = 0.3 * 0.5 * smallest * math.sqrt(density / young)
+    # Frictionless deposition (Tran's gravitational packing, yade_engines/clusters/pack_ballast.py) packs the lattice's
+    # columns down without jamming, undamped in the fall (Cundall damping would halve gravity), quenched once down;
+    # then the stones get their friction and come to rest, first with Cundall damping, then without.
+    stone_mat = next(b.mat for b in O.bodies if b.isClumpMember)
+    stone_mat.frictionAngle = 0.0
+    fall = math.sqrt(2.0 * max(O.bodies[c].state.pos[2] for c in clumps) / gravity)
+    for duration, damping, mu in ((fall + 0.05, 0.0, 0.0), (0.05, 0.3, 0.0), (0.05, 0.3, friction),
+                                  (0.05, 0.0, friction)):
+        if math.atan(mu) != stone_mat.frictionAngle:
+            stone_mat.frictionAngle = math.atan(mu)
+            O.interactions.clear()  # the contacts' physics take the new friction
+        O.engines = railcosim_engines(damping, gravity)
+        O.run(int(duration / O.dt), True)
+    if args.bed:
+        O.tags["cluster_cost_bed"] = json.dumps(bed_key)
+        os.makedirs(os.path.dirname(os.path.abspath(args.bed)), exist_ok=True)
+        O.save(args.bed)
 settle_s = time.perf_counter() - start
+members = sum(1 for b in O.bodies if b.isClumpMember)
 settled = bed_state(clumps, floor_force(floor, args.sample))
 print(f"bed: {len(clumps)} stones, {members} spheres, dt {O.dt:.3e} s, settled in {O.iter} steps ({settle_s:.0f} s wall): "
       f"mean height {settled['mean_height_m']:.4f} m, floor force / weight {settled['floor_force_over_weight']:.4f}, "
@@ -215,16 +231,18 @@ def timed_run(path):
     O.timingEnabled = True
     for e in O.engines:
         e.execTime = 0
-    start = time.perf_counter()
+    start, start_cpu = time.perf_counter(), time.process_time()
     O.run(args.steps, True)
-    wall = time.perf_counter() - start
+    wall, cpu = time.perf_counter() - start, time.process_time() - start_cpu
     engines_ns = {e.__class__.__name__: e.execTime for e in O.engines}
     O.timingEnabled = False
     per_stone, pairs_per_stone = contact_counts(clumps)
     physics = bed_state(clumps, floor_force(floor, args.sample))
     stone_steps = args.steps * len(clumps)
-    return {"path": path, "wall_s": wall, "us_per_stone_step": 1e6 * wall / stone_steps,
-            "us_per_sphere_step": 1e6 * wall / (args.steps * members),
+    return {"path": path, "wall_s": wall, "cpu_s": cpu,
+            "us_per_stone_step": 1e6 * wall / stone_steps, "us_per_sphere_step": 1e6 * wall / (args.steps * members),
+            "cpu_us_per_stone_step": 1e6 * cpu / stone_steps,
+            "cpu_us_per_sphere_step": 1e6 * cpu / (args.steps * members),
             "engines_us_per_stone_step": {k: 1e-3 * v / stone_steps for k, v in engines_ns.items()},
             "sphere_contacts_per_stone": per_stone, "touching_stones_per_stone": pairs_per_stone, **physics}
 
@@ -244,19 +262,24 @@ def spread(values):
     return {"median": statistics.median(values), "min": min(values), "max": max(values)}
 
 
+# Wall time is what a user waits; CPU time (all threads of the process) leaves out the time the process spends
+# descheduled on a loaded machine, so with one thread it is the steadier measure of the work.
 summary = {}
+stock = [r for r in runs if r["path"] == "stock"]
 for path in PATHS:
     mine = [r for r in runs if r["path"] == path]
-    stock = [r for r in runs if r["path"] == "stock"]
-    summary[path] = {
-        "us_per_stone_step": spread([r["us_per_stone_step"] for r in mine]),
-        "us_per_sphere_step": spread([r["us_per_sphere_step"] for r in mine]),
+    summary[path] = {key: spread([r[key] for r in mine])
+                     for key in ("us_per_stone_step", "us_per_sphere_step", "cpu_us_per_stone_step",
+                                 "cpu_us_per_sphere_step")}
+    summary[path].update({
         "ratio_to_stock": spread([a["us_per_stone_step"] / b["us_per_stone_step"] for a, b in zip(mine, stock)]),
+        "cpu_ratio_to_stock": spread([a["cpu_us_per_stone_step"] / b["cpu_us_per_stone_step"]
+                                      for a, b in zip(mine, stock)]),
         "engines_us_per_stone_step": {k: statistics.median([r["engines_us_per_stone_step"][k] for r in mine])
                                       for k in mine[0]["engines_us_per_stone_step"]},
         "sphere_contacts_per_stone": statistics.median([r["sphere_contacts_per_stone"] for r in mine]),
         "touching_stones_per_stone": statistics.median([r["touching_stones_per_stone"] for r in mine]),
-    }
+    })
 
 # Physics check: the same bed on every path.
 problems = []
@@ -271,16 +294,20 @@ for a, b in zip([r for r in runs if r["path"] == "railcosim"], [r for r in runs 
 load = os.getloadavg()
 print(f"\n{len(clumps)} stones ({members} spheres), {args.steps} steps of {O.dt:.3e} s, {threads} thread(s), "
       f"{args.repeats} repeats, load {load[0]:.1f}")
-print(f"{'path':<15} {'us/stone-step':>22} {'us/sphere-step':>15} {'ratio to stock':>22} {'contacts/stone':>15} "
-      f"{'loop':>6} {'integr.':>8} {'collider':>9}")
+
+def cell(figure, digits=2):
+    return f"{figure['median']:.{digits}f} ({figure['min']:.{digits}f}-{figure['max']:.{digits}f})"
+
+
+print(f"{'path':<15} {'wall us/stone-step':>21} {'ratio':>17} {'CPU us/stone-step':>21} {'ratio':>17} "
+      f"{'us/sphere':>9} {'contacts':>8} | engines [us/stone-step]: loop, integrator, collider")
 for path, s in summary.items():
     e = s["engines_us_per_stone_step"]
     integrator = e.get("QuaternionIntegrator", e.get("NewtonIntegrator"))
-    print(f"{path:<15} {s['us_per_stone_step']['median']:8.2f} ({s['us_per_stone_step']['min']:.2f}-"
-          f"{s['us_per_stone_step']['max']:.2f}) {s['us_per_sphere_step']['median']:15.3f} "
-          f"{s['ratio_to_stock']['median']:8.2f} ({s['ratio_to_stock']['min']:.2f}-{s['ratio_to_stock']['max']:.2f}) "
-          f"{s['sphere_contacts_per_stone']:15.2f} {e['InteractionLoop']:6.2f} {integrator:8.2f} "
-          f"{e['InsertionSortCollider']:9.2f}")
+    print(f"{path:<15} {cell(s['us_per_stone_step']):>21} {cell(s['ratio_to_stock']):>17} "
+          f"{cell(s['cpu_us_per_stone_step']):>21} {cell(s['cpu_ratio_to_stock']):>17} "
+          f"{s['cpu_us_per_sphere_step']['median']:9.3f} {s['sphere_contacts_per_stone']:8.2f} | "
+          f"{e['InteractionLoop']:.2f}, {integrator:.2f}, {e['InsertionSortCollider']:.2f}")
 print("physics check:", "PASS" if not problems else "MISMATCH\n  " + "\n  ".join(problems))
 
 if args.json:

@@ -77,8 +77,8 @@ extent_of = [np.max(np.abs(t[0][:, :3]) + t[0][:, 3:4], axis=0) for t in templat
 def build_bed():
     """Stones on a box lattice above the floor (long axes along y, random half turns), walls; returns clump ids."""
     O.reset()
-    mat = O.materials.append(BallastMat(young=young, poisson=poisson, density=density, frictionAngle=math.atan(friction),
-                                        restitution=restitution, label="stones"))
+    mat = O.materials.append(BallastMat(young=young, poisson=poisson, density=density,
+                                        frictionAngle=math.atan(friction), restitution=restitution, label="stones"))
     wall_mat = O.materials.append(BallastMat(young=young, poisson=poisson, density=density, frictionAngle=0.0,
                                              restitution=restitution, label="walls"))
     floor = O.bodies.append(utils.wall(position=0.0, axis=2, sense=1, material=mat))
@@ -209,7 +209,8 @@ else:
 settle_s = time.perf_counter() - start
 members = sum(1 for b in O.bodies if b.isClumpMember)
 settled = bed_state(clumps, floor_force(floor, args.sample))
-print(f"bed: {len(clumps)} stones, {members} spheres, dt {O.dt:.3e} s, settled in {O.iter} steps ({settle_s:.0f} s wall): "
+print(f"bed: {len(clumps)} stones, {members} spheres, dt {O.dt:.3e} s, settled in {O.iter} steps "
+      f"({settle_s:.0f} s wall): "
       f"mean height {settled['mean_height_m']:.4f} m, floor force / weight {settled['floor_force_over_weight']:.4f}, "
       f"max speed {settled['max_speed_m_s']:.2e} m/s", flush=True)
 O.saveTmp("settled")
@@ -323,6 +324,7 @@ if args.json:
         "date": datetime.date.today().isoformat(), "load_average_1_5_15": load, "threads": threads,
         "stones": len(clumps), "spheres": members, "cluster_level": level, "mean_sieve_size_m": args.size,
         "box_m": args.box, "time_step_s": O.dt, "steps": args.steps, "warmup_steps": args.warmup,
+        "sample_steps": args.sample,
         "repeats": args.repeats, "settled": settled,
         "materials": {"young_pa": young, "poisson": poisson, "density_kg_m3": density, "friction": friction,
                       "restitution": restitution},

@@ -1,15 +1,15 @@
 """Benchmark: cost per stone-step of railcosim's cluster path against stock YADE clumps with Hertz-Mindlin.
 
-USAGE:   ./railcosim yade [-jN] benchmarks/cluster_cost.py [--stones 500] [--steps 600] [--repeats 3] [--json PATH]
-         (`./railcosim bench clusters` runs it with one and with two OpenMP threads into one record file)
-OUTPUTS: a table per run (µs per stone-step and per sphere-step, the engines' shares, contacts per stone) and the
-         ratio of each path to stock YADE; JSON records only with --json, merged by thread count into that file.
+USAGE:   ./railcosim yade [-jN] benchmarks/cluster_cost.py [--stones 500] [--steps 600] [--repeats 3] [--bed FILE]
+         [--json PATH]   (`./railcosim bench clusters` runs it with one and with two OpenMP threads on one bed)
+OUTPUTS: a table (wall and CPU µs per stone-step and their ratios to stock YADE, CPU µs per sphere-step, contacts per
+         stone, the engines' µs per stone-step); JSON records only with --json, merged by thread count into that file.
 
 Bed: library sphere clusters (yade_engines/clusters, "coarse": 8-15 spheres per stone, as the beam case's
 particle_shape = "cluster"), sieve sizes uniform in [0.85, 1.15] x --size, principal axes on a box lattice with random
 half turns, dropped into a square box (frictional floor, frictionless side walls, so that the floor carries the whole
-weight) and settled once on the railcosim path (10 g with Cundall damping, then 1 g, then undamped). That state is
-saved; each timed run restores it, clears the contacts (every path starts its contact histories afresh), puts its own
+weight) and settled once on the railcosim path (frictionless deposition, then with friction, damped, then undamped;
+or read from --bed). That state is kept; each timed run restores it, clears the contacts (every path starts its contact histories afresh), puts its own
 materials on the bodies and its own engines in place, runs --warmup steps, then --steps timed steps, then samples the
 floor force over --sample steps. The paths, in the same scene, time step, gravity and thread count:
   railcosim       QuaternionIntegrator (Zhao-van Wachem) + BallastMat + Law2_ScGeom_BallastPhys_Ballast, smooth
@@ -20,9 +20,10 @@ floor force over --sample steps. The paths, in the same scene, time step, gravit
   stock           NewtonIntegrator + FrictMat + Ip2_FrictMat_FrictMat_MindlinPhys(en = es = e) +
                   Law2_ScGeom_MindlinPhys_Mindlin.
 The repetitions run the paths in turn, so that each ratio compares runs taken under the same machine load.
-Physics check (not timing): for each run the floor force must equal the bed's weight, and the settled bed's mean
-stone height must agree between railcosim and stock; a mismatch is reported and the script exits with status 1 after
-writing its records. Timing never fails it.
+Physics check (not timing): for each run the floor force minus the weight must equal the rate of change of the bed's
+vertical momentum and the floor force must be the weight, and the mean stone height must agree between railcosim and
+stock (limits below); a mismatch is reported and the script exits with status 1 after writing its records. Timing
+never fails it.
 """
 import argparse
 import datetime

@@ -11,7 +11,8 @@ half turns, dropped into a square box (frictional floor, frictionless side walls
 weight) and settled once on the railcosim path (frictionless deposition, then with friction, damped, then undamped;
 or read from --bed). That state is kept; each timed run restores it, clears the contacts (every path starts its
 contact histories afresh), puts its own materials on the bodies and its own engines in place, runs --warmup steps,
-then --steps timed steps, then samples the floor force over --sample steps. The paths, in the same scene, time step, gravity and thread count:
+then --steps timed steps, then samples the floor force over --sample steps. The paths, in the same scene, time step,
+gravity and thread count:
   railcosim       QuaternionIntegrator (Zhao-van Wachem) + BallastMat + Law2_ScGeom_BallastPhys_Ballast, smooth
                   Hertz-Mindlin with Thornton damping from e (docs/contact-models.md);
   railcosim_full  the same with Pohrt-Popov plastic normal law, stress-dependent friction and a rolling arm (the sub-

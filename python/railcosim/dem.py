@@ -345,17 +345,17 @@ class StandaloneDem:
         if self.recorder is None:
             self.recorder = results.DemRecorder(self.out)
         steps = max(1, int(round(seconds / O.dt)))
-        period = max(1, int(round(every_s / O.dt)))
+        records = max(1, int(round(seconds / every_s)))  # records spread evenly over the steps
         lines = max(1, self.parameters.get("progress_lines", 10))
-        print_every = max(period, steps // lines)
         start = time.monotonic()
         done = 0
-        while done < steps:
-            chunk = min(period, steps - done)
-            O.run(chunk, True)
-            done += chunk
+        for k in range(1, records + 1):
+            chunk = int(round(k * steps / records)) - done
+            if chunk > 0:
+                O.run(chunk, True)
+                done += chunk
             self.recorder.append(time=O.time, **record())
-            if done % print_every < chunk or done == steps:
+            if k * lines // records != (k - 1) * lines // records or k == records:
                 figures = f"  {progress(self.recorder.last)}" if progress else ""
                 print(f"t={O.time:.4f} s  step {O.iter}{figures}  {time.monotonic() - start:.1f} s", flush=True)
         self.wall_time_s += time.monotonic() - start

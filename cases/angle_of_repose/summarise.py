@@ -59,18 +59,25 @@ def plot(rows, defaults):
               ("ballast_mass_kg", "ballast [kg]", 1.0)]
     fig, axes = plt.subplots(1, len(panels), figsize=(13, 3.6), sharey=True)
     for ax, (key, label, scale) in zip(axes, panels):
-        others = [k for k, _, _ in panels if k != key]
-        chosen = [r for r in spheres if all(r[k] == defaults[k] for k in others)]
-        chosen.sort(key=lambda r: r[key])
-        x = [r[key] * scale for r in chosen]
-        ax.errorbar(x, [r["angle_deg"] for r in chosen], yerr=[r["spread_deg"] for r in chosen], fmt="o-", capsize=3,
-                    label="spheres + BROF (flank spread)")
+        # One line per amount of ballast (the studies run at 30 kg, the default at 60 kg), the other settings at default.
+        # E and the step change together in the E study (the step follows the critical step).
+        coupled = ("dem_dt",) if key == "particle_young" else ()
+        others = [k for k, _, _ in panels if k not in (key, "ballast_mass_kg") + coupled]
+        masses = sorted({r["ballast_mass_kg"] for r in spheres}) if key != "ballast_mass_kg" else [None]
+        for mass in masses:
+            chosen = sorted((r for r in spheres if all(r[k] == defaults[k] for k in others) and
+                             (mass is None or r["ballast_mass_kg"] == mass)), key=lambda r: r[key])
+            if len(chosen) < (1 if mass is None else 2):
+                continue
+            ax.errorbar([r[key] * scale for r in chosen], [r["angle_deg"] for r in chosen],
+                        yerr=[r["spread_deg"] for r in chosen], fmt="o-", capsize=3,
+                        label=f"{mass:g} kg" if mass is not None else "η_r = 0.2, 2.4 GPa")
         ax.axhspan(38, 42, color="0.85", label="thesis 40° ± 2°")
         ax.axvline(defaults[key] * scale, color="0.5", lw=0.8, ls=":")
         ax.set_xlabel(label)
         ax.grid(alpha=0.3)
-    axes[0].set_ylabel("angle of repose [deg]")
-    axes[0].legend(fontsize=7)
+        ax.legend(fontsize=7)
+    axes[0].set_ylabel("angle of repose [deg] (bars: spread over the flanks)")
     fig.tight_layout()
     fig.savefig(os.path.join(HERE, "results", "angle_of_repose.png"), dpi=110)
 

@@ -35,17 +35,18 @@ def main(results):
                      or "default", **{k: p[k] for k in SWEPT},
                      "angle_deg": round(m["angle_of_repose_deg"], 2), "spread_deg": round(m["angle_spread_deg"], 2),
                      "pile_height_m": round(m["pile_height_m"], 3), "particles": m["particles"], "spheres": m["spheres"],
-                     "simulated_s": round(m["simulated_s"], 3), "wall_time_s": round(summary["wall_time_s"], 1)})
+                     "simulated_s": round(m["simulated_s"], 3), "dem_steps": m["dem_steps"],
+                     "wall_time_s": round(summary["wall_time_s"], 1)})
     os.makedirs(os.path.join(HERE, "results"), exist_ok=True)
     with open(os.path.join(HERE, "results", "runs.csv"), "w", newline="") as f:
         writer = csv.DictWriter(f, fieldnames=list(rows[0]))
         writer.writeheader()
         writer.writerows(rows)
-    print("| campaign | settings | angle [deg] | flank spread [deg] | particles | simulated [s] | wall [s] |")
-    print("|---|---|---|---|---|---|---|")
+    print("| campaign | settings | angle [deg] | flank spread [deg] | particles | simulated [s] | steps | wall [s] |")
+    print("|---|---|---|---|---|---|---|---|")
     for r in rows:
         print(f"| {r['campaign']} | {r['settings']} | {r['angle_deg']:.1f} | {r['spread_deg']:.1f} | {r['particles']} | "
-              f"{r['simulated_s']:.2f} | {r['wall_time_s']:.0f} |")
+              f"{r['simulated_s']:.2f} | {r['dem_steps']} | {r['wall_time_s']:.0f} |")
     plot(rows, defaults)
 
 

@@ -50,7 +50,14 @@ def main(results):
     plot(rows, defaults)
 
 
+def scaled_step(row, defaults):
+    """The E study's step: the case's step scaled as E^-0.4, the critical step of the damped Hertz impact."""
+    return defaults["dem_dt"] * (row["particle_young"] / defaults["particle_young"]) ** -0.4
+
+
 def plot(rows, defaults):
+    # The E, time-step and amount studies ran at the thesis' η_r = 0.2, before the calibration chose the default.
+    defaults = dict(defaults, rolling_friction=0.2)
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
@@ -67,7 +74,9 @@ def plot(rows, defaults):
         masses = sorted({r["ballast_mass_kg"] for r in spheres}) if key != "ballast_mass_kg" else [None]
         for mass in masses:
             chosen = sorted((r for r in spheres if all(r[k] == defaults[k] for k in others) and
-                             (mass is None or r["ballast_mass_kg"] == mass)), key=lambda r: r[key])
+                             (mass is None or r["ballast_mass_kg"] == mass) and
+                             (not coupled or abs(r["dem_dt"] / scaled_step(r, defaults) - 1) < 0.02)),
+                            key=lambda r: r[key])
             if len(chosen) < (1 if mass is None else 2):
                 continue
             ax.errorbar([r[key] * scale for r in chosen], [r["angle_deg"] for r in chosen],
@@ -78,7 +87,8 @@ def plot(rows, defaults):
         ax.set_xlabel(label)
         ax.grid(alpha=0.3)
         ax.legend(fontsize=7)
-    axes[0].set_ylabel("angle of repose [deg] (bars: spread over the flanks)")
+    axes[0].set_ylabel("angle of repose [deg]")
+    fig.suptitle("Angle of repose of spheres with BROF (one seed each; bars: spread over the four flanks)", fontsize=9)
     fig.tight_layout()
     fig.savefig(os.path.join(HERE, "results", "angle_of_repose.png"), dpi=110)
 

@@ -23,6 +23,9 @@ must have a rule ({} for any value of its type), NaN and inf are always refused,
 key is refused before anything starts (exit 2). Each check of the post-processing is {name, value, limit} and
 passes when value <= limit; the runner marks it.
 
+A DEM-only case (`dem_only = true` in case.toml: a bulk test of the particles, python/railcosim/case.py) runs its
+YADE participant alone; --record, --replay-*, --checkpoint-every and --resume are refused for it.
+
 A run is written to OUT.partial-XXXXXXXX beside OUT and renamed to OUT at the end. A run that did not
 finish (failed, interrupted, time limit) never replaces an existing OUT: its folder is kept and named.
 The solvers run in their own process groups with line-buffered output, on an ipc endpoint in a per-run
@@ -57,7 +60,7 @@ import time
 import traceback
 
 from railcosim import checkpoints, parameters, snapshots
-from railcosim.case import CaseError, load_case
+from railcosim.case import CaseError, is_dem_only, load_case
 from railcosim.parameters import ParameterError
 
 # After one solver fails, how long the other may take to notice (the bridge reports a lost peer within a
@@ -349,9 +352,11 @@ RECORDING_FILE = "interface.rec"  # --record: every interface message of the run
 class Run:
     """One run of a case, from its partial folder to the summary and the rename into place."""
 
-    def __init__(self, name, case, params, out, args, time_limit, guard, resume=None):
-        """`resume`: (checkpoint folder, manifest) when the run continues the interrupted one in `out`."""
+    def __init__(self, name, case, params, out, args, time_limit, guard, resume=None, dem_only=False):
+        """`resume`: (checkpoint folder, manifest) when the run continues the interrupted one in `out`; `dem_only`:
+        the case runs the YADE participant alone (case.toml dem_only = true)."""
         self.name, self.case, self.params, self.out = name, case, params, out
+        self.dem_only = dem_only
         self.args, self.time_limit, self.guard = args, time_limit, guard
         self.resume = resume
         self.stage = "start"
@@ -446,8 +451,9 @@ class Run:
             self.summary["checkpoints"] = {"every_s": self.args.checkpoint_every, "folder": checkpoints.FOLDER}
         say(f"[run] endpoint {endpoint}; time limit {self.time_limit:.0f} s" if self.time_limit
             else f"[run] endpoint {endpoint}; no time limit")
-        commands = [("fem", self.case.fem_command(self.params, endpoint, self.partial)),
-                    ("dem", self.case.dem_command(self.params, endpoint, self.partial))]
+        commands = [("dem", self.case.dem_command(self.params, endpoint, self.partial))]
+        if not self.dem_only:
+            commands.insert(0, ("fem", self.case.fem_command(self.params, endpoint, self.partial)))
         played = self._replayed_side()
         if played:
             # The recording stands in for one solver; the other runs live and is compared with its recorded answers.
@@ -684,6 +690,13 @@ def main(argv, guard):
     config, case = load_case(case_dir)
     name = config.get("name", os.path.basename(case_dir))
     params = parameters.resolve_parameters(config, args.smoke, args.set)
+    dem_only = is_dem_only(config)
+    if dem_only:
+        # Restart checkpoints, recordings and replays are coordinated over the coupling, which a DEM-only case has not.
+        for given, option in ((args.record, "--record"), (args.replay_fem or args.replay_dem, "--replay-*"),
+                              (args.checkpoint_every is not None, "--checkpoint-every"), (args.resume, "--resume")):
+            if given:
+                raise CaseError(f"{option} needs the FEM participant; {name} is a DEM-only case (dem_only = true)")
     problems = parameters.check_parameters(params, config, case)
     if problems:
         raise ParameterError("\n".join(problems))
@@ -709,7 +722,7 @@ def main(argv, guard):
     out = os.path.abspath(args.out or os.path.join(os.getcwd(), "results", name + ("-smoke" if args.smoke else "")))
     if os.path.exists(out) and not args.force:
         raise CaseError(f"results folder {out} already exists; pass --force to replace it or --out to choose another")
-    return Run(name, case, params, out, args, time_limit, guard).execute()
+    return Run(name, case, params, out, args, time_limit, guard, dem_only=dem_only).execute()
 
 
 if __name__ == "__main__":

@@ -19,6 +19,12 @@ The runner calls the hooks in this order; p is the resolved parameters ({name: v
 A check is {name, value, limit} and passes when value <= limit. A case must define postprocess, and
 fem_arguments (the structure's FreeFEM options, from which the default fem_command is built) unless it defines
 fem_command itself; the other hooks have defaults.
+
+A DEM-only case (a bulk test of the particles alone: no structure, no coupling) says `dem_only = true` at the top
+of its case.toml: the runner then starts the YADE participant alone (dem_command; its dem.py uses
+railcosim.dem.StandaloneDem), fem_arguments and fem_command are neither required nor called, and what needs the
+FEM side (restart checkpoints, --record, --replay-*) is refused. Everything else is the same: parameters with
+their [limits], --set and --smoke, reference runs, postprocess and summary.json.
 """
 import importlib.util
 import inspect
@@ -92,9 +98,17 @@ def _overrides(cls, hook):
     return getattr(cls, hook) is not getattr(Case, hook)
 
 
-def check_case_class(cls, where):
-    """Refuses a Case subclass that lacks a required hook or defines a hook with other parameters than Case's."""
+def is_dem_only(config):
+    """Whether case.toml declares a DEM-only case (`dem_only = true`): the YADE participant runs alone."""
+    return config.get("dem_only", False) is True
+
+
+def check_case_class(cls, where, dem_only=False):
+    """Refuses a Case subclass that lacks a required hook or defines a hook with other parameters than Case's.
+    A DEM-only case needs no FEM hook."""
     for hook in REQUIRED_HOOKS:
+        if dem_only and hook in REPLACED_BY:
+            continue
         if not _overrides(cls, hook) and not (hook in REPLACED_BY and _overrides(cls, REPLACED_BY[hook])):
             alternative = f" (or {REPLACED_BY[hook]})" if hook in REPLACED_BY else ""
             raise CaseError(f"{where}: class {cls.__name__} does not define {hook}{inspect.signature(getattr(Case, hook))}"
@@ -128,7 +142,9 @@ def load_case(case_dir):
     if len(classes) != 1:
         found = f"{len(classes)} ({', '.join(c.__name__ for c in classes)})" if classes else "none"
         raise CaseError(f"{py_path}: expected one subclass of railcosim.case.Case, found {found}")
-    check_case_class(classes[0], py_path)
+    if "dem_only" in config and not isinstance(config["dem_only"], bool):
+        raise CaseError(f"{toml_path}: dem_only must be true or false, got {config['dem_only']!r}")
+    check_case_class(classes[0], py_path, is_dem_only(config))
     case = classes[0]()
     if not _overrides(classes[0], "dem_command") and not os.path.isfile(os.path.join(case_dir, "dem.py")):
         raise CaseError(f"{case_dir}: dem.py is missing (the YADE participant of the default dem_command)")

@@ -155,17 +155,22 @@ def restore_engine_states(engines, states):
             engine.restoreRestartState(private)
 
 
+def participant_arguments(argv=None):
+    """(parameters, endpoint, results folder) from the command line `railcosim run` gives dem.py."""
+    argv = sys.argv if argv is None else argv
+    if len(argv) != 4:
+        raise SystemExit(f"usage: railcosim yade {argv[0]} PARAMETERS.json ENDPOINT OUTDIR (started by railcosim run)")
+    parameters_path, endpoint, out = argv[1:]
+    with open(parameters_path) as f:
+        return json.load(f), endpoint, out
+
+
 class CoupledDem:
     """Set-up and tail of a case's YADE participant: parameters, coupling engine, time step, the window loop
     with its recorder, and the files the post-processing reads."""
 
     def __init__(self, argv=None):
-        argv = sys.argv if argv is None else argv
-        if len(argv) != 4:
-            raise SystemExit(f"usage: railcosim yade {argv[0]} PARAMETERS.json ENDPOINT OUTDIR (started by railcosim run)")
-        parameters_path, self.endpoint, self.out = argv[1:]
-        with open(parameters_path) as f:
-            self.parameters = json.load(f)
+        self.parameters, self.endpoint, self.out = participant_arguments(argv)
         self.coupling = None
         self.recorder = None
         self.snapshots = None
@@ -306,3 +311,61 @@ class CoupledDem:
         results.save_dem_outputs(self.out, self.recorder, info, **(arrays or {}))
         print(f"done: {O.iter} steps in {self.wall_time_s:.1f} s; bridge {coupling.bridgeTime:.3f} s over "
               f"{coupling.exchanges} exchanges", flush=True)
+
+
+class StandaloneDem:
+    """The YADE participant of a DEM-only case (case.toml `dem_only = true`: a bulk test of the particles, no structure):
+    parameters and results folder, runs of the scene with a per-period recorder, and the files the post-processing
+    reads (dem_timeseries.h5, dem_info.json). A dem.py reads as its physics:
+
+        dem = StandaloneDem()
+        p = dem.parameters
+        # 1. materials, bodies, engines; O.dt
+        dem.run(seconds, record, every_s)    # record() -> {series: value} every every_s of simulated time; may be
+        dem.run(seconds, record, every_s)    # called again (phases of a test); the series go on
+        dem.save(arrays={...}, **info)
+    """
+
+    def __init__(self, argv=None):
+        self.parameters, _, self.out = participant_arguments(argv)
+        self.recorder = None
+        self.wall_time_s = 0.0
+        self.state = {}
+
+    @property
+    def last(self):
+        """{series: value} of the latest record."""
+        return self.recorder.last
+
+    def run(self, seconds, record, every_s, progress=None):
+        """Runs the scene for `seconds` of simulated time (whole steps of O.dt), calling record() every `every_s`
+        (and at the end) for dem_timeseries.h5 (time is added); progress(last), if given, adds the case's figures to
+        the progress_lines lines printed over the run (progress_lines defaults to 10)."""
+        from yade import O
+        if self.recorder is None:
+            self.recorder = results.DemRecorder(self.out)
+        steps = max(1, int(round(seconds / O.dt)))
+        records = max(1, int(round(seconds / every_s)))  # records spread evenly over the steps
+        lines = max(1, self.parameters.get("progress_lines", 10))
+        start = time.monotonic()
+        done = 0
+        for k in range(1, records + 1):
+            chunk = int(round(k * steps / records)) - done
+            if chunk > 0:
+                O.run(chunk, True)
+                done += chunk
+            self.recorder.append(time=O.time, **record())
+            if k * lines // records != (k - 1) * lines // records or k == records:
+                figures = f"  {progress(self.recorder.last)}" if progress else ""
+                print(f"t={O.time:.4f} s  step {O.iter}{figures}  {time.monotonic() - start:.1f} s", flush=True)
+        self.wall_time_s += time.monotonic() - start
+
+    def save(self, arrays=None, **info):
+        """Writes dem_timeseries.h5 (closed, with `arrays`: per-run data such as final positions) and dem_info.json:
+        steps, step, wall time and `info`."""
+        from yade import O
+        if self.recorder is None:
+            self.recorder = results.DemRecorder(self.out)
+        info = {"steps": O.iter, "dt": O.dt, "wall_time_s": self.wall_time_s, **info}
+        results.save_dem_outputs(self.out, self.recorder, info, **(arrays or {}))
+        print(f"done: {O.iter} steps in {self.wall_time_s:.1f} s", flush=True)

@@ -10,7 +10,7 @@ import math
 #   fem          the FreeFEM structure: dimensions, mesh, material, damping, loads (case.py turns them into options)
 #   output       what is reported: average_s (the final span of the averaged figures), progress_lines
 PARAMETER_TABLES = ("parameters", "coupling", "fem", "output")
-OTHER_KEYS = ("name", "expected_wall_s", "restart_test_timeout_s", "restart_test_skip", "limits", "smoke")
+OTHER_KEYS = ("name", "expected_wall_s", "dem_only", "restart_test_timeout_s", "restart_test_skip", "limits", "smoke")
 
 # Defaults shared by every coupled case (one with a [coupling] table); a case's own value replaces them.
 # The coupling values are FemCouplingEngine's defaults, so a case states only what it chooses.

@@ -458,6 +458,55 @@ class CaseContractTest(unittest.TestCase):
                     run_case.load_case(folder)
 
 
+class DemOnlyTest(LauncherTestCase):
+    """A DEM-only case (dem_only = true): the YADE participant runs alone, no FEM hook is needed, and what needs the
+    FEM side is refused before anything starts."""
+
+    def dem_only_case(self, body=None):
+        folder = os.path.join(self.tmp, "dem_only_case")
+        shutil.copytree(CASE, folder)
+        shutil.copy(os.path.join(HERE, "standin_solver.py"), self.tmp)  # the stand-in case finds it beside its folder
+        with open(os.path.join(folder, "case.toml")) as f:
+            text = f.read()
+        with open(os.path.join(folder, "case.toml"), "w") as f:
+            f.write(text.replace('name = "standin"', 'name = "standin"\ndem_only = true'))
+        if body is not None:
+            with open(os.path.join(folder, "case.py"), "w") as f:
+                f.write(body)
+        return folder
+
+    def test_dem_runs_alone(self):
+        case = self.dem_only_case()
+        code, stdout, stderr = self.run_case(f"marker_dir={self.markers}", case=case)
+        self.assertEqual(code, 0, stdout + stderr)
+        self.assertEqual(sorted(self.started()), ["dem"])  # the stand-in FEM command is never started
+        summary = self.summary()
+        self.assertEqual(sorted(summary["solvers"]), ["dem"])
+        self.assertEqual(summary["status"], "ok")
+        self.assertEqual(summary["metrics"], {"lines": 3})
+
+    def test_no_fem_hook_needed(self):
+        body = ("from railcosim.case import Case\nclass A(Case):\n    def postprocess(self, p, out): return {}\n"
+                "    def dem_command(self, p, endpoint, out): return []\n")
+        _, case = run_case.load_case(self.dem_only_case(body))
+        self.assertEqual(type(case).__name__, "A")
+        coupled = os.path.join(self.tmp, "coupled_case")
+        shutil.copytree(CASE, coupled)
+        with open(os.path.join(coupled, "case.py"), "w") as f:
+            f.write(body)
+        with self.assertRaisesRegex(run_case.CaseError, "does not define fem_arguments"):
+            run_case.load_case(coupled)
+
+    def test_fem_side_options_refused(self):
+        case = self.dem_only_case()
+        for extra in (["--checkpoint-every", "0.01"], ["--record"], ["--resume", self.out]):
+            with self.subTest(option=extra[0]):
+                code, stdout, stderr = self.run_case(f"marker_dir={self.markers}", case=case, extra=extra)
+                self.assertEqual(code, run_case.EXIT_REFUSED, stdout + stderr)
+                self.assertIn("DEM-only case", stderr)
+                self.assertEqual(self.started(), {})
+
+
 class EndpointTest(LauncherTestCase):
     """The endpoint lies in a per-run folder only the user can enter; the token travels in the environment only."""
 

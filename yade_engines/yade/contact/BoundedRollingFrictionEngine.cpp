@@ -7,6 +7,7 @@
 
 #include <sstream>
 #include <stdexcept>
+#include <utility>
 #include <vector>
 
 #include "BallastContact.hpp"
@@ -40,8 +41,11 @@ void BoundedRollingFrictionEngine::action() {
     budget[interaction->getId1()] += moment;
     budget[interaction->getId2()] += moment;
   }
+  // Every torque is read before any is added: with OpenMP, addTorque leaves the container unsynchronised, and the
+  // next getTorque would throw (a bed of two or more spheres in contact).
   scene->forces.sync();
   lastMaxBudget = 0;
+  std::vector<std::pair<Body::id_t, Vector3r>> torques;
   for (const auto& body : *scene->bodies) {
     if (!body || !body->isDynamic() || !body->isStandalone() || budget[body->getId()] <= 0) continue;
     if (!dynamic_cast<const Sphere*>(body->shape.get())) continue;
@@ -55,8 +59,9 @@ void BoundedRollingFrictionEngine::action() {
         kernels::Vec3{double(applied[0]), double(applied[1]), double(applied[2])}, budget[id]);
     const Vector3r torque(rolling.x, rolling.y, rolling.z);
     lastMaxBudget = math::max(lastMaxBudget, Real(budget[id]));
-    scene->forces.addTorque(id, torque);
+    torques.emplace_back(id, torque);
   }
+  for (const auto& [id, torque] : torques) scene->forces.addTorque(id, torque);
 }
 
 } // namespace yade

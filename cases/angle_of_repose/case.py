@@ -1,0 +1,121 @@
+"""Angle of repose of ballast: the pile's surface fitted on every flank, against the thesis' 40° (see README.md)."""
+import math
+import os
+
+import numpy as np
+
+from railcosim import results
+from railcosim.case import Case
+
+GRAVITY = 9.81
+
+
+def surface_profile(spheres, sectors, bin_width):
+    """The pile's surface around the z axis (the hopper's axis): for each of `sectors` equal azimuthal sectors, the
+    radial bins of width bin_width and in each the highest sphere top z + r, then the sector's silhouette: the height
+    at a bin is the highest top at that distance from the axis or farther, as the flank is seen from outside (near
+    the axis a narrow sector's bin may hold no surface sphere). Returns [(bin centres, heights)] per sector, empty
+    bins left out."""
+    x, y, z, r = spheres.T
+    radius = np.hypot(x, y)
+    sector = np.minimum((np.arctan2(y, x) + math.pi) / (2.0 * math.pi) * sectors, sectors - 1).astype(int)
+    bins = (radius / bin_width).astype(int)
+    profiles = []
+    for s in range(sectors):
+        mine = sector == s
+        tops = {}
+        for b, top in zip(bins[mine], (z + r)[mine]):
+            tops[b] = max(tops.get(b, 0.0), top)
+        keys = sorted(tops)
+        heights = np.maximum.accumulate(np.array([tops[k] for k in keys])[::-1])[::-1]
+        profiles.append((np.array([(k + 0.5) * bin_width for k in keys]), heights))
+    return profiles
+
+
+def repose_angle(spheres, sectors, bin_width, lower, upper):
+    """The angle of repose [deg]: on each sector's surface profile, the least-squares line through the points whose
+    height lies between lower and upper times the pile height (the highest surface point), its slope's angle; the
+    mean over the sectors. Returns the mean, the sectors' angles, the pile height and the profiles with the fits."""
+    profiles = surface_profile(spheres, sectors, bin_width)
+    height = max(h.max() for _, h in profiles if len(h))
+    angles, fits = [], []
+    for radius, h in profiles:
+        band = (h >= lower * height) & (h <= upper * height)
+        if band.sum() < 2:
+            raise ValueError(f"a sector has {band.sum()} surface points between {lower} and {upper} of the pile height "
+                             f"{height:.3f} m: the pile is too small for {sectors} sectors or bins of {bin_width:.3f} m")
+        slope, intercept = np.polyfit(radius[band], h[band], 1)
+        angles.append(math.degrees(math.atan(-slope)))
+        fits.append((slope, intercept, radius[band], h[band]))
+    return {"angle_deg": float(np.mean(angles)), "sector_angles_deg": angles, "height_m": float(height),
+            "profiles": profiles, "fits": fits}
+
+
+def plot_pile(path, title, measured, reference_deg):
+    """The sectors' surface profiles, the points of each fit and its line, and the reference slope through the apex."""
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    fig, ax = plt.subplots(figsize=(7, 4.2))
+    for k, ((radius, h), (slope, intercept, fr, fh)) in enumerate(zip(measured["profiles"], measured["fits"])):
+        ax.plot(radius, h, ".", color="0.6", ms=3, label="silhouette (highest sphere top per bin and beyond)" if k == 0 else None)
+        ax.plot(fr, fh, "o", mfc="none", color="C0", ms=4, label="points of the fits" if k == 0 else None)
+        line = np.array([fr.min(), fr.max()])
+        ax.plot(line, slope * line + intercept, "-", color="C1", lw=1, label="fits, one per sector" if k == 0 else None)
+    apex = measured["height_m"]
+    run = apex / math.tan(math.radians(reference_deg))
+    ax.plot([0, run], [apex, 0], "k--", lw=1, label=f"{reference_deg:g}° (thesis)")
+    ax.set_xlabel("distance from the hopper axis [m]")
+    ax.set_ylabel("height [m]")
+    ax.set_title(f"{title}: {measured['angle_deg']:.1f}°")
+    ax.set_aspect("equal")
+    ax.set_ylim(bottom=0)
+    ax.legend(fontsize=7)
+    fig.tight_layout()
+    fig.savefig(path, dpi=120)
+    plt.close(fig)
+
+
+class AngleOfRepose(Case):
+    def postprocess(self, p, out):
+        dem = results.read_json(os.path.join(out, "dem_info.json"))
+        series = results.read_dem_series(out)
+        spheres = series["spheres"]
+        measured = repose_angle(spheres, p["profile_sectors"], p["profile_bin_diameters"] * dem["mean_diameter_m"],
+                                p["profile_lower_fraction"], p["profile_upper_fraction"])
+        angle, reference = measured["angle_deg"], p["reference_angle_deg"]
+        weight = dem["ballast_mass_kg"] * GRAVITY
+        # Oracles independent of the angle: at rest the floor carries the whole weight (the hopper is frictionless and
+        # empty, nothing else holds the ballast), and all of the ballast has left the hopper.
+        floor_error = abs(float(series["floor_force"][-1]) - weight) / weight
+        hopper_fraction = float(series["hopper_mass"][-1]) / dem["ballast_mass_kg"]
+        label = ("spheres, η_r = %g" % p["rolling_friction"] if p["particle_shape"] == "sphere" else
+                 f"{p['cluster_level']} clusters" + (f", γ_μ = {p['friction_exponent']:g}" if p["friction_exponent"] else ""))
+        plot_pile(os.path.join(out, "pile_profile.png"), f"Angle of repose, {label}", measured, reference)
+        results.plot_history(os.path.join(out, "discharge.png"), title=f"Hopper discharge, {label}", panels=[
+            {"x": series["time"], "y": series["hopper_mass"], "label": "ballast above the aperture",
+             "ylabel": "mass [kg]", "lines": []},
+            {"x": series["time"], "y": series["floor_force"] / weight, "label": "floor reaction / weight",
+             "ylabel": "[-]", "lines": [(1.0, "weight")]},
+            {"x": series["time"], "y": series["kinetic_energy"], "label": "kinetic energy", "ylabel": "[J]", "lines": []},
+        ])
+        checks = [
+            {"name": "angle of repose vs reference [deg]", "value": abs(angle - reference),
+             "limit": p["angle_tolerance_deg"]},
+            # At rest the reaction is the weight to the contacts' residual motion (measured < 0.1 %); 1 % would still
+            # flag a pile that is creeping or a hopper that holds ballast.
+            {"name": "floor reaction vs ballast weight at rest", "value": floor_error, "limit": p["weight_tolerance"]},
+            # A frictionless hopper keeps nothing: any ballast left above the aperture is a jam or a run cut short.
+            {"name": "ballast left in the hopper (fraction)", "value": hopper_fraction, "limit": 0.0},
+            {"name": "run ended at rest (0 = yes)", "value": 0.0 if dem["at_rest"] else 1.0, "limit": 0.0},
+        ]
+        return {
+            "metrics": {"angle_of_repose_deg": angle, "angle_spread_deg": float(np.std(measured["sector_angles_deg"])),
+                        "sector_angles_deg": measured["sector_angles_deg"], "pile_height_m": measured["height_m"],
+                        "particles": dem["particles"], "spheres": dem["spheres"], "ballast_mass_kg": dem["ballast_mass_kg"],
+                        "simulated_s": dem["simulated_s"], "dem_steps": dem["steps"], "dem_wall_time_s": dem["wall_time_s"],
+                        "floor_reaction_over_weight": float(series["floor_force"][-1]) / weight},
+            "reference": {"angle_of_repose_deg": reference, "ballast_weight_n": weight},
+            "relative_error": {"angle_of_repose": abs(angle - reference) / reference},
+            "checks": checks,
+        }

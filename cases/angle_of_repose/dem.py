@@ -1,0 +1,154 @@
+# DEM run of the angle-of-repose case: ballast (spheres with bounded rolling friction, or sphere clusters of the shape
+# library) discharged from a hopper onto a floor, left to come to rest. Run by `railcosim run` as:
+# railcosim yade dem.py PARAMETERS.json ENDPOINT OUTDIR (DEM-only case: the endpoint is not used)
+import math
+import os
+import sys
+
+import numpy as np
+
+from railcosim.dem import StandaloneDem
+
+dem = StandaloneDem()  # the run's parameters and results folder, from `railcosim run`
+p = dem.parameters
+shape = p["particle_shape"]
+GRAVITY = 9.81
+sys.path.insert(0, os.path.join(os.environ["RAILCOSIM_ROOT"], "yade_engines", "clusters"))
+import ballast_clusters  # noqa: E402
+import pack_ballast  # noqa: E402
+
+rng = np.random.default_rng(p["seed"])
+
+# 1. Materials (Irazábal 2017 Tables 6.1, 6.2, 6.5): ballast and floor share E, ν and μ = 0.6; the hopper is
+#    frictionless (thesis §6.2.1). Spheres resist rolling with η_r between them; the floor's η_r is the thesis' wall
+#    value (§6.4: a stone lying with a face on a rigid wall cannot roll), the pair using the larger of the two.
+#    Clusters roll on their shape alone (no rolling friction); between members of different clusters the friction
+#    may depend on the contact stress (friction_exponent < 0, Table 6.5).
+common = dict(young=p["particle_young"], poisson=p["particle_poisson"], density=p["particle_density"],
+              restitution=p["restitution"])
+ballast = O.materials.append(BallastMat(frictionAngle=math.atan(p["friction"]),
+                                        rollingFriction=p["rolling_friction"] if shape == "sphere" else 0.0,
+                                        frictionExponent=p["friction_exponent"] if shape == "cluster" else 0.0,
+                                        maxContactStress=p["max_contact_stress"] if shape == "cluster" else 0.0,
+                                        label="ballast", **common))
+floor_mat = O.materials.append(BallastMat(frictionAngle=math.atan(p["floor_friction"]),
+                                          rollingFriction=p["floor_rolling_friction"] if shape == "sphere" else 0.0,
+                                          label="floor", **common))
+hopper_mat = O.materials.append(BallastMat(frictionAngle=0.0, rollingFriction=0.0, label="hopper", **common))
+
+# 2. Floor (z = 0) and hopper: a square funnel with walls at hopper_wall_angle_deg to the horizontal, narrowing to the
+#    square aperture (side hopper_aperture) at drop_height above the floor, and a vertical square bin on top of it
+#    that holds the initial lattice. The hopper's axis is the z axis.
+floor = O.bodies.append(utils.wall(position=0.0, axis=2, sense=1, material=floor_mat))
+a, z0 = p["hopper_aperture"], p["drop_height"]
+slope = math.radians(p["hopper_wall_angle_deg"])
+z1 = z0 + p["hopper_height"]
+top_half = 0.5 * a + p["hopper_height"] / math.tan(slope)
+
+
+def funnel_half_width(z):
+    """Half the width of the hopper's square section at height z."""
+    return 0.5 * a + (min(z, z1) - z0) / math.tan(slope)
+
+
+# 3. Ballast: sizes drawn from the middle of the EN 13450 band (thesis Table 2.1) until the mass reaches ballast_mass_kg,
+#    sphere diameter = sieve size; clusters of the shape library ("coarse" 7-16 or "fine" 29-45 spheres, §5.3.4) at
+#    their sieve size, randomly turned. They start at rest on a jittered lattice filling the hopper from the aperture
+#    up, and flow out as soon as the run starts (no gate: the thesis' hopper holds no stored material either).
+if shape == "sphere":
+    diameters, mass = [], 0.0
+    while mass < p["ballast_mass_kg"]:
+        d = 1e-3 * ballast_clusters.sampleSieveSizes(rng, 1)[0]
+        diameters.append(d)
+        mass += p["particle_density"] * math.pi / 6.0 * d ** 3
+    reaches = 0.5 * np.array(diameters)
+else:
+    library = ballast_clusters.loadShapeLibrary()
+    stones = ballast_clusters.sampleBallastStones(library, rng, p["ballast_mass_kg"] / p["particle_density"],
+                                                  level=p["cluster_level"], density=p["particle_density"])
+    reaches = np.array([s["enclosingRadius"] for s in stones])
+count = len(reaches)
+spacing = 2.0 * 1.05 * reaches.max()
+jitter = 0.02 * spacing
+centres, z = [], z0 + 0.5 * spacing
+while len(centres) < count:
+    half = funnel_half_width(z) - 0.5 * spacing / math.sin(slope) if z < z1 else top_half - 0.5 * spacing
+    n = max(1, int(2.0 * half / spacing) + 1)
+    offsets = (np.arange(n) - 0.5 * (n - 1)) * spacing
+    for x in offsets:
+        for y in offsets:
+            if len(centres) < count:
+                centres.append((x + rng.uniform(-jitter, jitter), y + rng.uniform(-jitter, jitter), z))
+    z += spacing
+order = rng.permutation(count)  # sizes spread over the lattice, not sorted by height
+particle_ids = []
+for k, centre in zip(order, centres):
+    if shape == "sphere":
+        particle_ids.append(O.bodies.append(utils.sphere(centre, float(reaches[k]), material=ballast)))
+    else:
+        particle_ids.append(pack_ballast.addClusterStone(stones[k], centre, O.materials[ballast]))
+bin_top = max(c[2] for c in centres) + spacing
+
+corners = [(-1, -1), (1, -1), (1, 1), (-1, 1)]
+for k in range(4):
+    (sx0, sy0), (sx1, sy1) = corners[k], corners[(k + 1) % 4]
+    low = [Vector3(sx0 * 0.5 * a, sy0 * 0.5 * a, z0), Vector3(sx1 * 0.5 * a, sy1 * 0.5 * a, z0)]
+    high = [Vector3(sx0 * top_half, sy0 * top_half, z1), Vector3(sx1 * top_half, sy1 * top_half, z1)]
+    top = [Vector3(c[0], c[1], bin_top) for c in high]
+    for quad in ((low[0], low[1], high[1], high[0]), (high[0], high[1], top[1], top[0])):
+        O.bodies.append(utils.facet((quad[0], quad[1], quad[2]), material=hopper_mat, wire=True))
+        O.bodies.append(utils.facet((quad[0], quad[2], quad[3]), material=hopper_mat, wire=True))
+
+total_mass = sum(O.bodies[i].state.mass for i in particle_ids)
+spheres_per_particle = sum(1 for b in O.bodies if b.isClumpMember) / count if shape == "cluster" else 1
+print(f"{count} {shape}s ({spheres_per_particle:.1f} spheres each), {total_mass:.2f} kg, lattice up to {bin_top:.3f} m",
+      flush=True)
+
+# 4. Engines: the ballast contact law (Hertz-Mindlin with the restitution's viscous damping, Coulomb or stress-dependent
+#    friction, docs/contact-models.md); bounded rolling friction on spheres (after the contact loop, before an
+#    integrator without numerical damping); clusters rotate by the Zhao-van Wachem quaternion scheme (thesis §5.3).
+O.engines = [
+    ForceResetter(),
+    InsertionSortCollider([Bo1_Sphere_Aabb(), Bo1_Facet_Aabb(), Bo1_Wall_Aabb()]),
+    InteractionLoop([Ig2_Sphere_Sphere_ScGeom(), Ig2_Facet_Sphere_ScGeom(), Ig2_Wall_Sphere_ScGeom()],
+                    [Ip2_BallastMat_BallastMat_BallastPhys()], [Law2_ScGeom_BallastPhys_Ballast()]),
+] + ([BoundedRollingFrictionEngine()] if shape == "sphere" else []) + [
+    NewtonIntegrator(damping=0.0, gravity=(0, 0, -GRAVITY)) if shape == "sphere" else
+    QuaternionIntegrator(scheme="zhaoVanWachem", damping=0.0, gravity=(0, 0, -GRAVITY)),
+]
+O.dt = p["dem_dt"]
+
+
+# 5. Discharge and rest: the run goes on in spans of rest_check_s until the hopper is empty and every particle moves
+#    slower than rest_speed, or for duration_s at most. Recorded every record_every_s.
+def in_hopper_mass():
+    return sum(O.bodies[i].state.mass for i in particle_ids if O.bodies[i].state.pos[2] > z0)
+
+
+def record():
+    speeds = [O.bodies[i].state.vel.norm() for i in particle_ids]
+    return {"kinetic_energy": utils.kineticEnergy(), "hopper_mass": in_hopper_mass(), "max_speed": max(speeds),
+            "floor_force": -O.forces.f(floor)[2]}
+
+
+def progress(last):
+    return (f"hopper {last['hopper_mass']:.1f} kg  max speed {last['max_speed']:.3f} m/s  "
+            f"floor {last['floor_force'] / (total_mass * GRAVITY):.3f} W")
+
+
+while O.time < p["duration_s"] - 0.5 * O.dt:
+    dem.run(min(p["rest_check_s"], p["duration_s"] - O.time), record, p["record_every_s"], progress)
+    if dem.last["hopper_mass"] == 0.0 and dem.last["max_speed"] < p["rest_speed"]:
+        print(f"at rest at t = {O.time:.3f} s", flush=True)
+        break
+
+# 6. The pile: every sphere (cluster members for clusters) with its radius, for the profile fit of the post-processing.
+members = [b for b in O.bodies if isinstance(b.shape, Sphere)]
+spheres = np.array([(b.state.pos[0], b.state.pos[1], b.state.pos[2], b.shape.radius) for b in members])
+centres_now = np.array([tuple(O.bodies[i].state.pos) for i in particle_ids])
+masses = np.array([O.bodies[i].state.mass for i in particle_ids])
+dem.save(arrays={"spheres": spheres, "particle_centres": centres_now, "particle_masses": masses},
+         particles=count, spheres=len(members), ballast_mass_kg=total_mass, simulated_s=O.time,
+         at_rest=bool(dem.last["hopper_mass"] == 0.0 and dem.last["max_speed"] < p["rest_speed"]),
+         mean_diameter_m=float(2.0 * reaches.mean()) if shape == "sphere" else float(
+             np.mean([s["sieveSize"] for s in stones])))

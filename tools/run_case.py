@@ -23,6 +23,9 @@ must have a rule ({} for any value of its type), NaN and inf are always refused,
 key is refused before anything starts (exit 2). Each check of the post-processing is {name, value, limit} and
 passes when value <= limit; the runner marks it.
 
+A DEM-only case (fem_command returns None, python/railcosim/case.py) runs its YADE participant alone; it takes no
+--checkpoint-every, --resume, --record or --replay-*.
+
 A run is written to OUT.partial-XXXXXXXX beside OUT and renamed to OUT at the end. A run that did not
 finish (failed, interrupted, time limit) never replaces an existing OUT: its folder is kept and named.
 The solvers run in their own process groups with line-buffered output, on an ipc endpoint in a per-run
@@ -445,6 +448,7 @@ class Run:
             else f"[run] endpoint {endpoint}; no time limit")
         commands = [("fem", self.case.fem_command(self.params, endpoint, self.partial)),
                     ("dem", self.case.dem_command(self.params, endpoint, self.partial))]
+        commands = [(name, argv) for name, argv in commands if argv is not None]  # a DEM-only case: YADE alone
         played = self._replayed_side()
         if played:
             # The recording stands in for one solver; the other runs live and is compared with its recorded answers.
@@ -673,6 +677,9 @@ def main(argv, guard):
         if recording and not os.path.isfile(recording):
             raise CaseError(f"no such recording: {recording} (made by ./railcosim run CASE --record)")
     replaying = args.replay_fem or args.replay_dem
+    if case.dem_only(params) and (args.checkpoint_every is not None or args.resume or args.record or replaying):
+        raise CaseError(f"{name} is a DEM-only case (its fem_command is None): --checkpoint-every, --resume, --record "
+                        "and --replay-* need the coupling engine, which writes checkpoints and carries the interface")
     if args.resume and (args.record or replaying):
         raise CaseError("--resume does not combine with --record or --replay-*: a recording covers one run from its "
                         "first window")

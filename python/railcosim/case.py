@@ -11,12 +11,16 @@ The runner calls the hooks in this order; p is the resolved parameters ({name: v
 `smoke` and `case_dir`), out the run's results folder (the solvers run in it), endpoint the run's bridge address:
   check_parameters(p) -> [message]          before anything starts: rules the [limits] table cannot say
   fem_command(p, endpoint, out) -> argv     the FreeFEM participant  } started together,
+                                            (None: a DEM-only case, YADE alone)
   dem_command(p, endpoint, out) -> argv     the YADE participant     } watched until both exit
   reference_runs(p, out) -> [(name, argv)]  solver-only runs to compare with, one after the other
   postprocess(p, out) -> dict               summary.json's metrics, reference, relative_error and checks
 A check is {name, value, limit} and passes when value <= limit. A case must define postprocess, and
 fem_arguments (the structure's FreeFEM options, from which the default fem_command is built) unless it defines
-fem_command itself; the other hooks have defaults.
+fem_command itself; the other hooks have defaults. A DEM-only case (a test of the ballast alone) defines
+fem_command returning None: the runner starts its YADE participant alone, with no endpoint to connect to; its dem.py
+runs its own loop instead of railcosim.dem.CoupledDem's windows, and restart checkpoints, recordings and replays,
+which the coupling engine makes, are refused for it (Case.dem_only).
 """
 import importlib.util
 import inspect
@@ -51,12 +55,17 @@ class Case:
         return []
 
     def fem_command(self, p, endpoint, out):
-        """The FreeFEM participant: fem_script in coupled mode with the [coupling]/[output] options and fem_arguments."""
+        """The FreeFEM participant: fem_script in coupled mode with the [coupling]/[output] options and fem_arguments;
+        None in a DEM-only case (YADE runs alone)."""
         return solvers.coupled_fem_command(p, endpoint, out, solvers.fem_script(self.fem_script), self.fem_arguments(p))
 
     def dem_command(self, p, endpoint, out):
         """The YADE participant: the case folder's dem.py."""
         return solvers.dem_command(p, endpoint, out)
+
+    def dem_only(self, p):
+        """Whether the case runs YADE alone: it overrides fem_command and that returns None (not a hook)."""
+        return _overrides(type(self), "fem_command") and self.fem_command(p, "", "") is None
 
     def reference_runs(self, p, out):
         """Solver-only runs after the coupled one, [(name, argv)]; each must succeed before postprocess."""

@@ -27,6 +27,8 @@ from railcosim.case import load_case  # noqa: E402
 CHECKPOINT_WAIT_S = 120.0
 # A complete checkpoint is a folder named window-NNNNNNNN (its staging folder ends in .partial).
 COMPLETE = "window-" + "[0-9]" * 8
+# Exit status of a case that has no restart to test (CTest's SKIP_RETURN_CODE in cases/CMakeLists.txt).
+SKIPPED = 77
 
 
 def run(command, **kwargs):
@@ -87,11 +89,16 @@ def main():
     parser.add_argument("--tolerance", type=float, default=0.0)
     parser.add_argument("--reference")
     args, options = parser.parse_known_args()
+    sets = [options[k + 1] for k, option in enumerate(options[:-1]) if option == "--set"]
+    config, case = load_case(os.path.abspath(args.case))
+    resolved = parameters.resolve_parameters(config, "--smoke" in options, sets)
+    if case.dem_only(dict(resolved, smoke="--smoke" in options, case_dir=os.path.abspath(args.case))):
+        # Checkpoints are written by the coupling engine, which a DEM-only case does not have (cases/README.md).
+        print("SKIP: a DEM-only case (fem_command returns None) has no restart checkpoints")
+        sys.exit(SKIPPED)
     if args.checkpoint_every is None:
         # The case's own duration, as the runner resolves it for these options (--smoke, --set).
-        sets = [options[k + 1] for k, option in enumerate(options[:-1]) if option == "--set"]
-        config, _ = load_case(os.path.abspath(args.case))
-        args.checkpoint_every = parameters.resolve_parameters(config, "--smoke" in options, sets)["duration_s"] / 4
+        args.checkpoint_every = resolved["duration_s"] / 4
     shutil.rmtree(args.work, ignore_errors=True)
     os.makedirs(args.work)
     reference = args.reference

@@ -7,6 +7,7 @@
 
 #include <sstream>
 #include <stdexcept>
+#include <utility>
 #include <vector>
 
 #include "BallastContact.hpp"
@@ -42,6 +43,9 @@ void BoundedRollingFrictionEngine::action() {
   }
   scene->forces.sync();
   lastMaxBudget = 0;
+  // Every sphere's applied torque is read before any is added: addTorque marks the container unsynchronised, and
+  // the next getTorque would then throw (a bed of more than one rolling sphere).
+  std::vector<std::pair<Body::id_t, Vector3r>> rollingTorques;
   for (const auto& body : *scene->bodies) {
     if (!body || !body->isDynamic() || !body->isStandalone() || budget[body->getId()] <= 0) continue;
     if (!dynamic_cast<const Sphere*>(body->shape.get())) continue;
@@ -55,8 +59,9 @@ void BoundedRollingFrictionEngine::action() {
         kernels::Vec3{double(applied[0]), double(applied[1]), double(applied[2])}, budget[id]);
     const Vector3r torque(rolling.x, rolling.y, rolling.z);
     lastMaxBudget = math::max(lastMaxBudget, Real(budget[id]));
-    scene->forces.addTorque(id, torque);
+    rollingTorques.emplace_back(id, torque);
   }
+  for (const auto& [id, torque] : rollingTorques) scene->forces.addTorque(id, torque);
 }
 
 } // namespace yade

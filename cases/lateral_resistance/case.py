@@ -1,0 +1,104 @@
+"""Lateral resistance of a sleeper in ballast (DEM only): peak force against the laboratory line and the thesis's DEM
+line, shares of base, sides and shoulder, vertical equilibrium and the mobilised base friction (see README.md)."""
+import os
+
+import numpy as np
+
+from railcosim import results
+from railcosim.case import Case
+
+GRAVITY = 9.81
+# Peak lateral force against vertical load, F_p = slope F_v + intercept [N]: van 't Zand & Moraal (1997) in the lab,
+# Irazábal (2017) eq. 6.10; the thesis's DEM fit, eq. 6.11.
+LAB_LINE = (0.7247, 9011.9)
+THESIS_DEM_LINE = (0.7442, 9213.39)
+# Irazábal §6.4.5: the crest lowered by 6 cm cuts the unloaded sleeper's resistance by about 20 %.
+CREST_DROP_M, CREST_DROP_FACTOR = 0.06, 0.80
+# Beyond this push the thesis finds the base's share negligible and the shoulder's about 90 % (Fig. 6.29).
+SHARE_FROM_M = 2.5e-3
+
+
+def lab_peak(p):
+    """The laboratory peak for this run's load and crest, or None where the lab and the thesis give none."""
+    line = LAB_LINE[0] * p["vertical_load_N"] + LAB_LINE[1]
+    if p["crest_drop_m"] == 0:
+        return line
+    if abs(p["crest_drop_m"] - CREST_DROP_M) < 1e-9 and p["vertical_load_N"] == 0:
+        return CREST_DROP_FACTOR * line
+    return None
+
+
+class LateralResistance(Case):
+    def fem_command(self, p, endpoint, out):
+        """DEM only: the sleeper is rigid (README: its compliance is far below the ballast's)."""
+        return None
+
+    def postprocess(self, p, out):
+        info = results.read_json(os.path.join(out, "dem_info.json"))
+        series = results.read_dem_series(out)
+        u, force = series["displacement"], series["lateral_force"]
+        k = int(np.argmax(force))
+        peak = float(force[k])
+        faces = ("base", "sides", "shoulder", "top")
+        share = {f: series[f"{f}_lateral_force"] / np.where(force > 0, force, np.nan) for f in faces}
+        late = u >= SHARE_FROM_M
+        shares_late = {f: float(np.nanmean(share[f][late])) for f in faces} if late.any() else {}
+        # Quasi-static equilibrium of the vertically free sleeper: over the push the ballast carries its weight and
+        # the load (its vertical momentum stays bounded), whatever the contact law.
+        weight = info["loaded_mass_kg"] * GRAVITY
+        equilibrium = abs(float(np.mean(series["vertical_reaction"])) - weight) / weight
+        # Base friction mobilised over the last fifth of the push, where the sleeper slides on its bed: the base's
+        # lateral over its normal force, the ballast-sleeper mu at full sliding (Coulomb), less where contacts stick.
+        end = u >= 0.8 * u[-1]
+        mobilised = float(np.mean(series["base_lateral_force"][end]) / np.mean(series["base_normal_force"][end]))
+        reference = lab_peak(p)
+        metrics = {"peak_lateral_force_N": peak, "vertical_load_N": p["vertical_load_N"],
+                   "peak_displacement_m": float(u[k]), "force_at_end_N": float(force[-1]),
+                   "crest_drop_m": p["crest_drop_m"], "base_friction_mobilised": mobilised,
+                   **{f"{f}_share_at_peak": float(share[f][k]) for f in faces},
+                   **{f"{f}_share_beyond_2_5mm": v for f, v in shares_late.items()},
+                   "base_share_first_record": float(share["base"][0]),
+                   "spheres": info["spheres"], "dem_dt_s": info["dt"], "push_steps": info["push_steps"],
+                   "packing_wall_time_s": info["packing_wall_time_s"], "push_wall_time_s": info["push_wall_time_s"]}
+        checks = [
+            # The mean vertical reaction is the weight up to the sleeper's vertical acceleration averaged over the
+            # push; 5 % leaves room for the bed's settlement under the push.
+            {"name": "vertical reaction vs weight and load", "value": equilibrium, "limit": p["equilibrium_tolerance"]},
+            # Coulomb bound: the base cannot carry more than mu times its normal force (a 2 % margin for the
+            # averaging of each record's samples).
+            {"name": "base friction mobilised / ballast-sleeper mu", "value": mobilised / p["sleeper_friction"],
+             "limit": 1.02},
+        ]
+        summary_reference = {"thesis_dem_peak_N": THESIS_DEM_LINE[0] * p["vertical_load_N"] + THESIS_DEM_LINE[1]}
+        relative_error = {}
+        if reference is not None:
+            summary_reference["lab_peak_N"] = reference
+            relative_error["peak_lateral_force_N"] = (peak - reference) / reference
+            checks.append({"name": "peak lateral force vs laboratory", "value": abs(peak - reference) / reference,
+                           "limit": p["peak_tolerance"]})
+        results.write_timeseries(os.path.join(out, "timeseries.h5"), {"dem": series})
+        self._plot(os.path.join(out, "force_displacement.png"), p, series, reference)
+        return {"metrics": metrics, "reference": summary_reference, "relative_error": relative_error,
+                "checks": checks, "wall_time_s_dem": info["wall_time_s"]}
+
+    @staticmethod
+    def _plot(path, p, series, reference):
+        import matplotlib
+        matplotlib.use("Agg")
+        import matplotlib.pyplot as plt
+        u = series["displacement"] * 1e3
+        fig, ax = plt.subplots(figsize=(7, 4.5))
+        ax.plot(u, series["lateral_force"] / 1e3, lw=1.6, color="k", label="total")
+        for face, style in (("base", "-."), ("sides", ":"), ("shoulder", "--")):
+            ax.plot(u, series[f"{face}_lateral_force"] / 1e3, ls=style, lw=1.2, label=face)
+        if reference is not None:
+            ax.axhline(reference / 1e3, color="C3", lw=1.0, label="laboratory peak (van 't Zand & Moraal)")
+        ax.set_xlabel("lateral displacement of the sleeper [mm]")
+        ax.set_ylabel("lateral resistance [kN]")
+        ax.set_title(f"Sleeper lateral resistance, F_v = {p['vertical_load_N'] / 1e3:g} kN, "
+                     f"crest drop {p['crest_drop_m'] * 100:g} cm")
+        ax.grid(alpha=0.3)
+        ax.legend(fontsize=8)
+        fig.tight_layout()
+        fig.savefig(path, dpi=120)
+        plt.close(fig)

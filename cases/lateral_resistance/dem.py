@@ -2,6 +2,7 @@
 # mirror walls is pushed along its axis at a set speed, vertically free under its weight and the vertical load;
 # the ballast's reaction is recorded per face. Irazábal (2017) §6.4 (Tables 6.6, 6.7); lab: van 't Zand & Moraal (1997).
 # Run by `railcosim run` as: railcosim yade dem.py PARAMETERS.json ENDPOINT OUTDIR (the endpoint is unused).
+import hashlib
 import json
 import math
 import os
@@ -54,11 +55,10 @@ test = [O.materials.append(m) for m in (
     surface_material(p["mirror_young"], 0.0, p["wall_rolling_friction"]))]
 BALLAST, SLEEPER, SLAB, MIRROR = range(4)
 
-# 3. Boundaries: the slab, the mirror walls (frictionless: the neighbouring sleepers' bed by symmetry) and, for the
-# packing only, end walls.
+# 3. Boundaries: the slab and the mirror walls (frictionless: the neighbouring sleepers' bed by symmetry); end walls
+# for the packing only (pack_bed).
 slab = O.bodies.append(utils.wall(position=0.0, axis=2, sense=1, material=packing[SLAB]))
 mirrors = [O.bodies.append(utils.wall(position=s * half_y, axis=1, sense=-s, material=packing[MIRROR])) for s in (-1, 1)]
-ends = [O.bodies.append(utils.wall(position=s * x_box, axis=0, sense=-s, material=packing[MIRROR])) for s in (-1, 1)]
 
 # 4. Grading EN 13450 (Irazábal Table 2.1, mid-points of the passing bands), diameters scaled by size_scale.
 sieves = [0.0224, 0.0315, 0.040, 0.050, 0.063]
@@ -98,33 +98,65 @@ def settle(seconds):
 
 
 # 5. Pre-calculation (Irazábal §6.4.2, gravitational packing without friction): the layer under the held sleeper,
-# cut flat at the sleeper's bottom; crib and shoulders rained around it; the bed cut to its profile.
-# The sleeper, held above the packing box until the layer under it is made (YADE's collider missed a body added
+# cut flat at the sleeper's bottom; crib and shoulders rained around it; the bed cut to its profile. The packed bed
+# depends only on the geometry, the grading and the packing settings: kept in the cache and reused by runs that
+# differ in load, push or test contact parameters.
+# The sleeper is held above the packing box until the layer under it is made (YADE's collider missed a body added
 # after spheres had been erased).
 sleeper_mass = p["sleeper_mass"]
 sleeper = O.bodies.append(utils.box(center=(0, 0, 10.0), extents=(0.5 * L, 0.5 * B, 0.5 * H),
                                     material=packing[SLEEPER], fixed=True))
-spheres = rain(0.0, 2.0 * depth + 2 * r_max, p["seed"])
-O.dt = p["dt_safety"] * utils.PWaveTimeStep()
-settle(p["settle_s"])
-for i in spheres:
-    b = O.bodies[i]
-    if b.state.pos[2] + b.shape.radius > depth:
-        O.bodies.erase(i)
-spheres = [i for i in spheres if O.bodies[i] is not None]
+PACKING_KEYS = ("sleeper_length", "sleeper_width", "sleeper_height", "sleeper_spacing", "ballast_depth",
+                "shoulder_width", "shoulder_slope", "crest_drop_m", "size_scale", "packing_young", "ballast_poisson",
+                "ballast_density", "restitution", "settle_s", "dt_safety", "seed")
+key = hashlib.sha256(json.dumps({k: p[k] for k in PACKING_KEYS}, sort_keys=True).encode()).hexdigest()[:16]
+cache = os.path.join(os.environ.get("RAILCOSIM_CACHE", os.path.join(out, "cache")), "beds", "lateral_resistance",
+                     f"bed-{key}.npz")
 
-O.bodies[sleeper].state.pos = Vector3(0, 0, depth + 0.5 * H)
-O.engines[1].doSort = True  # the collider
-inside = lambda c, r: not (abs(c[0]) < 0.5 * L + r and abs(c[1]) < 0.5 * B + r)
-spheres += rain(depth, depth + 2.2 * H + 2 * r_max, p["seed"] + 1, inside)
-settle(p["settle_s"])
-for i in spheres:
-    c = O.bodies[i].state.pos
-    if c[2] > crest or abs(c[0]) > profile_x(c[2]):
+
+def pack_bed():
+    """The packed bed: sphere centres and radii, and the height of the sleeper's centre resting on it."""
+    ends = [O.bodies.append(utils.wall(position=s * x_box, axis=0, sense=-s, material=packing[MIRROR]))
+            for s in (-1, 1)]
+    spheres = rain(0.0, 2.0 * depth + 2 * r_max, p["seed"])
+    O.dt = p["dt_safety"] * utils.PWaveTimeStep()
+    settle(p["settle_s"])
+    for i in spheres:
+        b = O.bodies[i]
+        if b.state.pos[2] + b.shape.radius > depth:
+            O.bodies.erase(i)
+    spheres = [i for i in spheres if O.bodies[i] is not None]
+    O.bodies[sleeper].state.pos = Vector3(0, 0, depth + 0.5 * H)
+    O.engines[1].doSort = True  # the collider
+    inside = lambda c, r: not (abs(c[0]) < 0.5 * L + r and abs(c[1]) < 0.5 * B + r)
+    spheres += rain(depth, depth + 2.2 * H + 2 * r_max, p["seed"] + 1, inside)
+    settle(p["settle_s"])
+    for i in spheres:
+        c = O.bodies[i].state.pos
+        if c[2] > crest or abs(c[0]) > profile_x(c[2]):
+            O.bodies.erase(i)
+    spheres = [i for i in spheres if O.bodies[i] is not None]
+    for i in ends:
         O.bodies.erase(i)
-spheres = [i for i in spheres if O.bodies[i] is not None]
-for i in ends:
-    O.bodies.erase(i)
+    bed = np.array([[*O.bodies[i].state.pos, O.bodies[i].shape.radius] for i in spheres])
+    # The sleeper lowered onto the highest grain under it (the cut left a gap), so that it does not fall onto it.
+    under = (np.abs(bed[:, 0]) < 0.5 * L) & (np.abs(bed[:, 1]) < 0.5 * B) & (bed[:, 2] < depth)
+    return spheres, bed, float(np.max(bed[under, 2] + bed[under, 3]) + 0.5 * H)
+
+
+if os.path.isfile(cache):
+    with np.load(cache) as saved:
+        bed, sleeper_z = saved["bed"], float(saved["sleeper_z"])
+    spheres = [O.bodies.append(utils.sphere(row[:3], row[3], material=packing[BALLAST])) for row in bed]
+    print(f"packed bed from {cache}", flush=True)
+else:
+    spheres, bed, sleeper_z = pack_bed()
+    os.makedirs(os.path.dirname(cache), exist_ok=True)
+    partial = f"{cache}.{os.getpid()}.npz"
+    np.savez(partial, bed=bed, sleeper_z=sleeper_z)
+    os.replace(partial, cache)  # whole or not at all, if two runs pack the same bed at once
+O.bodies[sleeper].state.pos = Vector3(0, 0, sleeper_z)
+O.engines[1].doSort = True  # the collider
 
 # 6. The test's materials (friction, rolling friction); contacts made anew with them. The sleeper becomes free
 # vertically (its weight and the vertical load) and held in the other directions; the bed settles under it.
@@ -159,7 +191,7 @@ __main__.lateral_sleeper_friction = sleeper_friction  # PyRunner commands run in
 O.engines = O.engines + [PyRunner(command="lateral_sleeper_friction()", iterPeriod=p["friction_every"], label="friction")]
 solid = sum(4.0 / 3.0 * math.pi * O.bodies[i].shape.radius ** 3 for i in spheres)
 O.dt = p["dt_safety"] * utils.PWaveTimeStep()
-settle(p["settle_s"])
+settle(p["rest_s"])
 settled = time.monotonic() - wall_start
 bed_at_start = np.array([[*O.bodies[i].state.pos, O.bodies[i].shape.radius] for i in spheres])
 z0 = s.state.pos[2]
@@ -196,7 +228,8 @@ x0 = s.state.pos[0]
 recorder = results.DemRecorder(out)
 acc = {f: np.zeros(3) for f in FACES}
 count = 0
-s.state.vel = Vector3(v, 0, 0)
+vz_start = s.state.vel[2]
+s.state.vel = Vector3(v, 0, vz_start)
 push_start = time.monotonic()
 t0 = O.time
 for k in range(0, steps, sample):
@@ -210,7 +243,7 @@ for k in range(0, steps, sample):
         recorder.append(time=O.time - t0, displacement=s.state.pos[0] - x0, lateral_force=-total[0],
                         **{f"{f}_lateral_force": -mean[f][0] for f in FACES},
                         base_normal_force=mean["base"][2], vertical_reaction=total[2],
-                        settlement=z0 - s.state.pos[2], kinetic_energy=utils.kineticEnergy())
+                        settlement=z0 - s.state.pos[2], sleeper_velocity_z=s.state.vel[2], kinetic_energy=utils.kineticEnergy())
         acc = {f: np.zeros(3) for f in FACES}
         count = 0
         last = recorder.last
@@ -224,7 +257,8 @@ info = {"spheres": len(spheres), "dt": O.dt, "steps": O.iter, "push_steps": step
         "wall_time_s": time.monotonic() - wall_start, "packing_wall_time_s": settled,
         "push_wall_time_s": time.monotonic() - push_start, "sleeper_mass_kg": sleeper_mass,
         "sleeper_weight_n": sleeper_mass * 9.81, "loaded_mass_kg": s.state.mass, "solid_volume_m3": solid,
-        "diameters_m": [sizes[0], sizes[-1]], "sleeper_sink_m": depth + 0.5 * H - z0}
+        "diameters_m": [sizes[0], sizes[-1]], "sleeper_sink_m": depth + 0.5 * H - z0,
+        "sleeper_velocity_z_start": vz_start, "packed_bed": cache}
 bed = np.array([[*O.bodies[i].state.pos, O.bodies[i].shape.radius] for i in spheres])
 results.save_dem_outputs(out, recorder, info, bed_spheres=bed, bed_spheres_at_start=bed_at_start, sleeper_centre=np.array(s.state.pos))
 print(f"done: {steps} push steps in {info['push_wall_time_s']:.0f} s, {info['wall_time_s']:.0f} s in all", flush=True)

@@ -203,7 +203,7 @@ FACES = ("base", "sides", "shoulder", "top")
 
 
 def face_forces():
-    """{face: force of the ballast on the sleeper [N]} and the base's normal force, from each contact's point."""
+    """{face: force of the ballast on the sleeper [N]}, from each contact's normal."""
     c = s.state.pos
     sums = {f: np.zeros(3) for f in FACES}
     for i in s.intrs():
@@ -212,9 +212,11 @@ def face_forces():
         f = i.phys.normalForce + i.phys.shearForce  # on body 2
         if i.id1 == sleeper:
             f = -f
-        q = i.geom.contactPoint - c
-        gaps = (0.5 * B - abs(q[1]), 0.5 * L - abs(q[0]), 0.5 * H + q[2], 0.5 * H - q[2])  # sides, ends, base, top
-        face = ("sides", "shoulder", "base", "top")[int(np.argmin(gaps))]
+        # The face is the one the contact pushes on: the dominant component of the contact normal (a grain on an edge
+        # counts with the face it presses most; a face's own contacts have its normal exactly).
+        n = i.geom.normal
+        axis = int(np.argmax((abs(n[0]), abs(n[1]), abs(n[2]))))
+        face = ("shoulder", "sides", "base" if i.geom.contactPoint[2] < c[2] else "top")[axis]
         sums[face] += (f[0], f[1], f[2])
     return sums
 

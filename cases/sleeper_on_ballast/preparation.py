@@ -26,6 +26,10 @@ STONE, SENSOR = 0, 1
 # Wall candidates per stone: a large stone at a box corner under the sleeper meets the walls' and the sleeper's
 # triangles (the sleeper's bottom face is 80 triangles of 0.11-0.15 x 0.1 m).
 WALL_NEIGHBOURS = 32
+# Bodies above this multiple of the median bounding radius stay out of the polyhedra system's neighbour grid
+# (PolyhedraSystem's largeBodyRatio): the sensor blocks among the seed's stones (5-6 x), which would otherwise set the
+# grid's cell size.
+LARGE_BODY_RATIO = 2.5
 SYNC_INTERVAL = 100      # DEM steps per batch of the polyhedra engine (the plates are steered once per batch)
 CHUNK_S = 0.01           # simulated time between settling checks and progress lines [s]
 # Plates (compaction, seating) are steered by a force servo once per batch (PlateServo).
@@ -181,16 +185,18 @@ def stone_material(scene):
 
 
 def neighbour_limit(scene, bed):
-    """Candidate list length of the bed. The polyhedra system keeps one length for all stones, and the largest body
-    (a sensor block, else the largest stone) lists up to every stone within its bounding sphere plus theirs: 1.5 x the
-    stones of mean size that fit, at the assumed porosity, in the shell between that body and the sphere of its
-    bounding radius plus a mean stone's."""
+    """Candidate list length of the bed. The polyhedra system keeps one length for all stones. Bodies above
+    LARGE_BODY_RATIO x the median bounding radius (the sensor blocks, where they are that much larger) are large: they
+    list no stones, each stone lists the large bodies within its reach. The largest other body lists up to every stone
+    within its bounding sphere plus theirs: 1.5 x the stones of mean size that fit, at the assumed porosity, in the
+    shell between that body and the sphere of its bounding radius plus a mean stone's; plus every large body."""
     radii = np.array([bed.bounding_radius(scene, i) for i in range(len(bed))])
-    largest = int(np.argmax(radii))
+    large = radii > LARGE_BODY_RATIO * np.median(radii)
+    largest = int(np.argmax(np.where(large, -1.0, radii)))
     own = math.prod(sc.SENSOR_SIZE) if bed.kind[largest] == SENSOR else sc.stone_volume(scene, bed.shape[largest],
                                                                                           bed.size[largest])
     shell = 4.0 / 3.0 * math.pi * (radii[largest] + np.mean(radii[bed.kind == STONE])) ** 3 - own
-    return int(max(24, 1.5 * (1 - sc.ASSUMED_POROSITY) * shell / sc.mean_stone_volume(scene)))
+    return int(max(24, 1.5 * (1 - sc.ASSUMED_POROSITY) * shell / sc.mean_stone_volume(scene) + np.sum(large)))
 
 
 def say(text):

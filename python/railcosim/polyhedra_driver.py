@@ -55,7 +55,7 @@ def _library():
         lib = ctypes.CDLL(path)
         p, i, d, s = ctypes.c_void_p, ctypes.c_int, ctypes.c_double, ctypes.c_char_p
         signatures = {
-            "rcp_last_error": (s, []), "rcp_create": (p, [d, _D, _D, i, i, i, d, i, s]), "rcp_destroy": (None, [p]),
+            "rcp_last_error": (s, []), "rcp_create": (p, [d, _D, _D, i, i, i, d, i, d, s]), "rcp_destroy": (None, [p]),
             "rcp_add_stone": (i, [p, _D, i, d, d, _D, _D, _D, _D]), "rcp_set_walls": (i, [p, _D, i, _I, _D, i]),
             "rcp_initialize": (i, [p]), "rcp_critical_time_step": (d, [p, d, d]), "rcp_set_time_step": (i, [p, d]),
             "rcp_time_step": (d, [p]), "rcp_set_wall_velocity": (i, [p, _I, i, _D]), "rcp_step": (i, [p, i]),
@@ -88,13 +88,14 @@ class PolyhedraBed:
     """One polyhedra system driven without YADE (see the module's docstring)."""
 
     def __init__(self, time_step, stone_material, gravity=(0.0, 0.0, -9.81), max_neighbours=24, max_wall_neighbours=8,
-                 rebuild_interval=10, neighbour_skin=-1.0, adaptive_rebuild=True, backend="automatic"):
+                 rebuild_interval=10, neighbour_skin=-1.0, adaptive_rebuild=True, large_body_ratio=2.5,
+                 backend="automatic"):
         self._lib = _library()
         self._gravity = _doubles(gravity, 3)
         self._material = _doubles(stone_material, 4)
         self._handle = self._lib.rcp_create(time_step, _pointer(self._gravity), _pointer(self._material), max_neighbours,
                                             max_wall_neighbours, rebuild_interval, neighbour_skin, int(adaptive_rebuild),
-                                            backend.encode())
+                                            large_body_ratio, backend.encode())
         if not self._handle:
             raise DriverError(self._lib.rcp_last_error().decode())
 

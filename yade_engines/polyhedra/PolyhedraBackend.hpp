@@ -1,6 +1,8 @@
 // Internal: host copy of the whole system and the interface both backends (CPU reference, CUDA) implement.
 #pragma once
 
+#include <algorithm>
+#include <cmath>
 #include <cstdint>
 #include <memory>
 #include <string>
@@ -34,6 +36,8 @@ struct HostData {
   std::vector<std::int32_t> pairCount, pairCountPrevious, wallCount, wallCountPrevious;
   std::vector<std::uint32_t> cellKey;
   std::vector<std::int32_t> sortedStone, cellStart, cellEnd;
+  std::vector<std::int32_t> largeBodies; // stored indices of the bodies outside the grid (SystemView::largeRadius)
+  double largeRadius = 0.0;              // bounding radius above which a body is large; +inf: none is
   std::uint32_t tableSize = 0;
   double cellSize = 0.0;
   double timeStep = 0.0;
@@ -50,13 +54,14 @@ struct HostData {
 
   int nodeCount() const { return static_cast<int>(nodePosition.size() / 3); }
   int triangleCount() const { return static_cast<int>(triangles.size() / 3); }
-  // Rebuilds within a step call may be skipped: adaptive rebuilds asked for and the surface at rest (moving
-  // nodes would need their own displacement bookkeeping, so a moving surface keeps every rebuild).
-  bool rebuildsMayBeSkipped() const {
-    if (!adaptiveRebuild) return false;
-    for (const double v : nodeVelocity)
-      if (v != 0.0) return false;
-    return true;
+  // The fastest surface node [m/s]. Nodes keep their velocity through a step call, so the way they went since the
+  // last rebuild is this times the time since then (listsStaleWithWalls).
+  double maxNodeSpeed() const {
+    double fastest = 0.0;
+    for (std::size_t k = 0; k + 2 < nodeVelocity.size(); k += 3)
+      fastest = std::max(fastest, std::sqrt(nodeVelocity[k] * nodeVelocity[k] + nodeVelocity[k + 1] * nodeVelocity[k + 1] +
+                                            nodeVelocity[k + 2] * nodeVelocity[k + 2]));
+    return fastest;
   }
   // Sizes every per-stone and per-triangle array after stones/shapes/walls are known.
   void allocate();

@@ -120,7 +120,12 @@ struct SystemView {
   std::int32_t* cellStart; // per hash bucket, −1 when empty
   std::int32_t* cellEnd;
   std::uint32_t tableSize; // power of two
-  double cellSize;
+  double cellSize;         // ≥ the bounding diameter of every body but the large ones, plus the skin
+  // Large bodies (bounding radius > largeRadius) are listed here, not found through the grid: each ordinary stone
+  // lists those within reach as its partners, a large body only the large bodies after it.
+  const std::int32_t* largeBodies;
+  int largeCount;
+  double largeRadius;
   // parameters
   double timeStep;
   Vec3 gravity;
@@ -253,6 +258,14 @@ inline bool listsStale(double maxDisplacement, double maxSpeed, double horizon, 
   return maxDisplacement + 2.0 * horizon * maxSpeed > 0.5 * skin;
 }
 
+// The stale test with moving walls (plates, a coupled surface): a stone–triangle gap closes by the stone's and the
+// triangle's displacements, so the nodes' way since the last rebuild and their speed count as a stone's would.
+inline bool listsStaleWithWalls(double maxDisplacement, double maxSpeed, double nodeMoved, double nodeSpeed,
+                                double horizon, double skin) {
+  return listsStale(maxDisplacement > nodeMoved ? maxDisplacement : nodeMoved, maxSpeed > nodeSpeed ? maxSpeed : nodeSpeed,
+                    horizon, skin);
+}
+
 // Surface nodes move with their prescribed velocity during a coupling window.
 RAILCOSIM_HOST_DEVICE inline void moveNode(const SystemView& s, int k) {
   store3(s.nodePosition, k, load3(s.nodePosition, k) + s.timeStep * load3(s.nodeVelocity, k));
@@ -313,8 +326,13 @@ RAILCOSIM_HOST_DEVICE inline void carrySlot(ContactSlot* out, kernels::NormalHis
   if (outNormal) outNormal[count] = k >= 0 ? previousNormal[k] : kernels::NormalHistory{0.0, 0.0};
 }
 
+RAILCOSIM_HOST_DEVICE inline bool isLarge(const SystemView& s, int i) {
+  return s.shapes[s.shape[i]].boundingRadius > s.largeRadius;
+}
+
 // Rebuilds the candidate lists of stone i from the sorted grid (partners j > i within the bounding
-// distance plus skin) and the triangle candidates, carrying the contact history over by partner id.
+// distance plus skin; large bodies from their own list, see SystemView::largeBodies) and the triangle
+// candidates, carrying the contact history over by partner id.
 // `previous*NormalHistory`: the normal histories of the previous lists (null where none is kept).
 RAILCOSIM_HOST_DEVICE inline void buildNeighbours(const SystemView& s, int i, const ContactSlot* previousPairs,
                                                   const std::int32_t* previousPairCount,
@@ -335,10 +353,20 @@ RAILCOSIM_HOST_DEVICE inline void buildNeighbours(const SystemView& s, int i, co
   int count = 0;
   int needed = 0;
   int cursor = 0;
+  const bool large = isLarge(s, i);
+  auto consider = [&](int j) {
+    const double reach = radius + s.shapes[s.shape[j]].boundingRadius + s.skin;
+    if (kernels::squaredNorm(load3(s.position, j) - x) > reach * reach) return;
+    ++needed;
+    if (count < s.maxPairs) {
+      carrySlot(out, outNormal, count, old, oldNormal, previousSlotIndex(old, oldCount, j, cursor), j);
+      ++count;
+    }
+  };
   // Hash collisions can map two of the 27 cells to one bucket: remember visited buckets.
   std::uint32_t visited[27];
   int visitedCount = 0;
-  for (int dz = -1; dz <= 1; ++dz) {
+  for (int dz = large ? 2 : -1; dz <= 1; ++dz) { // a large body scans no cell
     for (int dy = -1; dy <= 1; ++dy) {
       for (int dx = -1; dx <= 1; ++dx) {
         const std::uint32_t bucket = cellHash(cx + dx, cy + dy, cz + dz, s.tableSize);
@@ -351,17 +379,14 @@ RAILCOSIM_HOST_DEVICE inline void buildNeighbours(const SystemView& s, int i, co
         const int end = s.cellEnd[bucket];
         for (int k = start; k < end; ++k) {
           const int j = s.sortedStone[k];
-          if (j <= i) continue;
-          const double reach = radius + s.shapes[s.shape[j]].boundingRadius + s.skin;
-          if (kernels::squaredNorm(load3(s.position, j) - x) > reach * reach) continue;
-          ++needed;
-          if (count < s.maxPairs) {
-            carrySlot(out, outNormal, count, old, oldNormal, previousSlotIndex(old, oldCount, j, cursor), j);
-            ++count;
-          }
+          if (j > i && !isLarge(s, j)) consider(j);
         }
       }
     }
+  }
+  for (int n = 0; n < s.largeCount; ++n) {
+    const int j = s.largeBodies[n];
+    if (!large || j > i) consider(j);
   }
   s.pairCount[i] = count;
   if (needed > s.maxPairs) atomicMaximum(&s.counters[counterPairOverflow], static_cast<unsigned long long>(needed));

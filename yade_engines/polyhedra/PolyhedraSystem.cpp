@@ -4,7 +4,9 @@
 #include <algorithm>
 #include <cmath>
 #include <cstring>
+#include <functional>
 #include <istream>
+#include <limits>
 #include <map>
 #include <ostream>
 #include <sstream>
@@ -362,6 +364,36 @@ void PolyhedraSystem::Implementation::restoreUserOrder() {
   storedOf.clear();
 }
 
+namespace {
+
+// The bounding radius above which a body is large (Parameters::largeBodyRatio): `ratio` times the median one; when
+// more than maxLargeBodies exceed it, the radius of the (maxLargeBodies + 1)-th largest body (the largest ones go).
+// +inf when none is large.
+double largeBodyRadius(const HostData& d, double ratio) {
+  const double none = std::numeric_limits<double>::infinity();
+  if (!(ratio > 0.0) || d.stoneCount == 0) return none;
+  std::vector<double> radii(d.shape.size());
+  for (std::size_t i = 0; i < radii.size(); ++i) radii[i] = d.shapes[d.shape[i]].boundingRadius;
+  std::nth_element(radii.begin(), radii.begin() + radii.size() / 2, radii.end());
+  double threshold = ratio * radii[radii.size() / 2];
+  if (radii.size() > static_cast<std::size_t>(maxLargeBodies)) {
+    std::nth_element(radii.begin(), radii.begin() + maxLargeBodies, radii.end(), std::greater<double>());
+    threshold = std::max(threshold, radii[maxLargeBodies]);
+  }
+  const bool any = std::any_of(radii.begin(), radii.end(), [&](double r) { return r > threshold; });
+  return any ? threshold : none;
+}
+
+// Stored indices of the large bodies (after the storage order is set).
+std::vector<std::int32_t> largeBodiesOf(const HostData& d) {
+  std::vector<std::int32_t> large;
+  for (int i = 0; i < d.stoneCount; ++i)
+    if (d.shapes[d.shape[i]].boundingRadius > d.largeRadius) large.push_back(i);
+  return large;
+}
+
+} // namespace
+
 void PolyhedraSystem::Implementation::start() {
   if (started) return;
   HostData& d = data;
@@ -373,16 +405,18 @@ void PolyhedraSystem::Implementation::start() {
   if (!d.triangleMaterial.empty() && d.triangleMaterial.size() != static_cast<std::size_t>(d.triangleCount()))
     fail("step", "setWallMaterials named " + std::to_string(d.triangleMaterial.size()) + " triangles, the walls have " +
                      std::to_string(d.triangleCount()) + "; call it again after setWalls");
-  double maxBounding = 0.0, meanDilation = 0.0;
-  for (std::int32_t s : d.shape) {
-    maxBounding = std::max(maxBounding, d.shapes[s].boundingRadius);
-    meanDilation += d.shapes[s].dilationRadius;
-  }
+  double meanDilation = 0.0;
+  for (std::int32_t s : d.shape) meanDilation += d.shapes[s].dilationRadius;
   meanDilation /= d.stoneCount;
   // Default skin: a fifth of the dilation radius, the scale on which contacts open and close.
   d.skin = parameters.neighbourSkin >= 0.0 ? parameters.neighbourSkin : 0.2 * meanDilation;
+  d.largeRadius = largeBodyRadius(d, parameters.largeBodyRatio);
+  double maxBounding = 0.0;
+  for (std::int32_t s : d.shape)
+    if (d.shapes[s].boundingRadius <= d.largeRadius) maxBounding = std::max(maxBounding, d.shapes[s].boundingRadius);
   d.cellSize = 2.0 * maxBounding + d.skin;
   storeInSpatialOrder();
+  d.largeBodies = largeBodiesOf(d);
   try {
     d.allocate();
     backend->upload(d);
@@ -396,6 +430,9 @@ void PolyhedraSystem::Implementation::start() {
 PolyhedraSystem::PolyhedraSystem(const Parameters& p) : implementation_(std::make_unique<Implementation>()) {
   if (!(p.timeStep > 0.0)) fail("PolyhedraSystem", "timeStep must be > 0 s, got " + std::to_string(p.timeStep));
   if (p.rebuildInterval < 1) fail("PolyhedraSystem", "rebuildInterval must be >= 1");
+  if (!(p.largeBodyRatio <= 0.0 || p.largeBodyRatio >= 1.0))
+    fail("PolyhedraSystem", "largeBodyRatio must be >= 1 (or <= 0: no large bodies), got " +
+                                std::to_string(p.largeBodyRatio));
   if (p.maxNeighbours < 1 || p.maxWallNeighbours < 1)
     fail("PolyhedraSystem", "maxNeighbours and maxWallNeighbours must be >= 1");
   if (!(p.featureTolerance >= 0.0 && p.featureTolerance < 1.0))
@@ -1009,6 +1046,7 @@ void PolyhedraSystem::readState(std::istream& in) {
   d.forcesValid = forcesValid != 0;
   m.statistics = statistics;
   if (!sameOrder) m.snapshot.saved = false;
+  d.largeBodies = largeBodiesOf(d);
   m.backend->upload(d);
   m.hostCurrent = true;
 }

@@ -68,10 +68,17 @@ struct Parameters {
   double neighbourSkin = -1.0;                    ///< Verlet skin [m]; < 0: 0.2 × mean dilation radius
   /// Steps between neighbour-list rebuilds [-]. Every `step` call starts with one; with adaptiveRebuild a
   /// later one is skipped while no stone's displacement since the last rebuild plus its speed × this
-  /// interval reaches half the skin (a settled bed then keeps its lists; a moving surface never skips).
+  /// interval reaches half the skin (a settled bed then keeps its lists); moving walls count by their nodes' way
+  /// since the last rebuild and their speed (a plate pressing a bed slowly skips most rebuilds too).
   int rebuildInterval = 10;
   bool adaptiveRebuild = true; ///< skip rebuilds the lists do not need (see rebuildInterval)
-  int maxNeighbours = 24;      ///< candidate partners stored per stone (j > i) [-]
+  int maxNeighbours = 24;      ///< candidate partners stored per stone (j > i; a large body's partners: see below) [-]
+  /// Bodies whose bounding radius exceeds this multiple of the median one are "large" (pressure cells, blocks among
+  /// stones): they stay out of the grid, whose cell then fits the other bodies, and every other body lists the large
+  /// ones within reach itself (a scan of at most maxLargeBodies, the largest if more exceed it). A 0.17 m sensor
+  /// among 0.03 m stones would otherwise set grid cells of 125 times the volume, 27 of them scanned per stone; a
+  /// stone's list (maxNeighbours) then holds its partners j > i plus the large bodies within reach [-]. <= 0: none.
+  double largeBodyRatio = 2.5;
   int maxWallNeighbours = 8;   ///< candidate triangles stored per stone [-]
   /// Patch centring, fraction of r_d [-]. 0 (default): the force acts at the closest points of the cores
   /// (Ullrich 2022: two virtual spheres there), a conservative force field. > 0: vertices within this band of
@@ -82,6 +89,9 @@ struct Parameters {
   double featureTolerance = 0.0;
   Backend backend = Backend::Automatic; ///< Automatic: CUDA if a GPU is usable, else CPU
 };
+
+/// Most large bodies (Parameters::largeBodyRatio) a system lists apart from the grid; with more, all share the grid.
+constexpr int maxLargeBodies = 256;
 
 /// One active contact (for checks, output and the comparison between backends).
 struct ContactRecord {

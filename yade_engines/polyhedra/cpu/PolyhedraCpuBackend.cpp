@@ -89,6 +89,9 @@ SystemView HostData::view() {
   v.cellEnd = cellEnd.data();
   v.tableSize = tableSize;
   v.cellSize = cellSize;
+  v.largeBodies = largeBodies.empty() ? nullptr : largeBodies.data();
+  v.largeCount = static_cast<int>(largeBodies.size());
+  v.largeRadius = largeRadius;
   v.timeStep = timeStep;
   v.gravity = gravity;
   v.skin = skin;
@@ -154,9 +157,11 @@ public:
     }
     // Every call starts with a rebuild; later rebuilds, every rebuildInterval steps, are skipped while the
     // stale test at the end of the previous interval found no stone that could outgrow the lists.
-    const bool mayskip = d.rebuildsMayBeSkipped();
+    const bool mayskip = d.adaptiveRebuild;
     // The predict of the step that rebuilds moves the stones once more before the new lists: + 1 step.
     const double horizon = (d.rebuildInterval + 1) * d.timeStep;
+    const double nodeSpeed = d.maxNodeSpeed();
+    int lastRebuild = 0; // step index of the last rebuild in this call
     bool stale = true;
     for (int s = 0; s < steps; ++s) {
       SystemView v = d.view();
@@ -165,6 +170,7 @@ public:
       for (int k = 0; k < v.nodeCount; ++k) moveNode(v, k);
       if (s % d.rebuildInterval == 0 && (s == 0 || !mayskip || stale)) {
         rebuild(d);
+        lastRebuild = s;
         ++result.rebuilds;
         v = d.view();
       }
@@ -180,7 +186,9 @@ public:
           maxMoved = std::max(maxMoved, moved);
           maxSpeed = std::max(maxSpeed, speed);
         }
-        stale = listsStale(maxMoved, maxSpeed, horizon, d.skin);
+        // The nodes moved in the predicts of steps lastRebuild + 1 .. s (and lastRebuild's, before the lists: + 1).
+        const double nodeMoved = (s + 1 - lastRebuild) * d.timeStep * nodeSpeed;
+        stale = listsStaleWithWalls(maxMoved, maxSpeed, nodeMoved, nodeSpeed, horizon, d.skin);
       }
     }
     for (int k = 0; k < counterCount; ++k) result.values[k] = d.counters[k];

@@ -324,6 +324,7 @@ public:
     rawStone_.resize(d.sortedStone.size());
     cellStart_.upload(d.cellStart, stream_);
     cellEnd_.upload(d.cellEnd, stream_);
+    largeBodies_.upload(d.largeBodies, stream_);
     counters_.resize(counterCount);
     const long long slots = static_cast<long long>(d.stoneCount) * d.maxPairs;
     if (slots >= (1ll << 31) || static_cast<long long>(d.stoneCount) * d.maxWalls >= (1ll << 31))
@@ -437,9 +438,11 @@ public:
     // Every call starts with a rebuild; a later one is skipped when the stale test at the end of the
     // previous interval (read back here: one small copy and wait per interval) found no stone that could
     // outgrow the lists (the CPU reference decides the same way).
-    const bool mayskip = d.rebuildsMayBeSkipped();
+    const bool mayskip = d.adaptiveRebuild;
+    const double nodeSpeed = d.maxNodeSpeed();
     bool rebuild = true;
-    int done = 0;
+    int done = 0, sinceRebuild = 0; // steps since the start of the chunk that rebuilt last
+
     while (steps - done >= interval) {
       // A chunk with a rebuild turns buffer `current_` into `1 − current_`: graphs per parity and kind.
       const int parity = current_;
@@ -457,9 +460,11 @@ public:
       if (rebuild) {
         current_ = 1 - parity;
         result.rebuilds += 1;
+        sinceRebuild = 0;
       }
       done += interval;
-      rebuild = !mayskip || listsOutgrown(d);
+      sinceRebuild += interval;
+      rebuild = !mayskip || listsOutgrown(d, sinceRebuild * d.timeStep * nodeSpeed, nodeSpeed);
     }
     if (done < steps) {
       enqueueChunk(d, steps - done, rebuild);
@@ -534,6 +539,7 @@ private:
     v.sortedStone = sortedStone_.get();
     v.cellStart = cellStart_.get();
     v.cellEnd = cellEnd_.get();
+    v.largeBodies = largeBodies_.get();
     v.counters = counters_.get();
     return v;
   }
@@ -607,7 +613,7 @@ private:
   }
 
   // The stale test on the motion recorded at the end of the last chunk (waits for that chunk).
-  bool listsOutgrown(const HostData& d) {
+  bool listsOutgrown(const HostData& d, double nodeMoved, double nodeSpeed) {
     unsigned long long bits[2] = {0, 0};
     check(
         cudaMemcpyAsync(bits, counters_.get() + counterMaxDisplacement, sizeof(bits), cudaMemcpyDeviceToHost, stream_),
@@ -615,7 +621,7 @@ private:
     check(cudaStreamSynchronize(stream_), "motion");
     double motion[2];
     std::memcpy(motion, bits, sizeof(motion));
-    return listsStale(motion[0], motion[1], (d.rebuildInterval + 1) * d.timeStep, d.skin);
+    return listsStaleWithWalls(motion[0], motion[1], nodeMoved, nodeSpeed, (d.rebuildInterval + 1) * d.timeStep, d.skin);
   }
 
   // `count` steps, the first with a neighbour rebuild if `rebuild` (as the CPU reference: at step index
@@ -661,7 +667,7 @@ private:
   DeviceArray<kernels::RotationState> rotation_;
   DeviceArray<double> position_, velocity_, force_, torque_, reference_, vertices_, nodePosition_, nodeVelocity_,
       triangleForce_, trianglePoint_, triangleWeight_;
-  DeviceArray<std::int32_t> shape_, triangles_, triangleMaterial_, pairCount_[2], wallCount_[2], sortedStone_, rawStone_, cellStart_,
+  DeviceArray<std::int32_t> shape_, triangles_, triangleMaterial_, pairCount_[2], wallCount_[2], sortedStone_, rawStone_, cellStart_, largeBodies_,
       cellEnd_;
   DeviceArray<ShapeData> shapes_;
   DeviceArray<ContactSlot> pairSlots_[2], wallSlots_[2];

@@ -213,7 +213,7 @@ const char* rcp_last_error(void) { return lastError.c_str(); }
 
 rcp_bed* rcp_create(double timeStep, const double* gravity, const double* stoneMaterial, int maxNeighbours,
                     int maxWallNeighbours, int rebuildInterval, double neighbourSkin, int adaptiveRebuild,
-                    const char* backend) {
+                    double largeBodyRatio, const char* backend) {
   return guarded(
       "rcp_create",
       [&]() -> rcp_bed* {
@@ -228,6 +228,7 @@ rcp_bed* rcp_create(double timeStep, const double* gravity, const double* stoneM
         p.rebuildInterval = rebuildInterval;
         p.neighbourSkin = neighbourSkin;
         p.adaptiveRebuild = adaptiveRebuild != 0;
+        p.largeBodyRatio = largeBodyRatio;
         p.backend = backendOf(backend ? backend : "automatic");
         bed->system = std::make_unique<poly::PolyhedraSystem>(p);
         return bed.release();

@@ -19,10 +19,11 @@ typedef struct rcp_bed rcp_bed;
 
 const char* rcp_last_error(void);
 
-/* A new bed. backend: "automatic", "cpu" or "cuda". skin < 0: a fifth of the mean dilation radius. */
+/* A new bed. backend: "automatic", "cpu" or "cuda". skin < 0: a fifth of the mean dilation radius. large_body_ratio:
+   bodies with a bounding radius above this multiple of the median one are kept out of the grid (<= 0: none). */
 rcp_bed* rcp_create(double time_step, const double* gravity, const double* stone_material, int max_neighbours,
                     int max_wall_neighbours, int rebuild_interval, double neighbour_skin, int adaptive_rebuild,
-                    const char* backend);
+                    double large_body_ratio, const char* backend);
 void rcp_destroy(rcp_bed* bed);
 
 /* A stone: core vertices (body frame, 3 per vertex), dilation, density; its body frame's state. Returns its index. */

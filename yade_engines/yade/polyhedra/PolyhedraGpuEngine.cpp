@@ -149,6 +149,7 @@ void PolyhedraGpuEngine::initialize() {
   parameters.wall = parameters.stone;
   parameters.rebuildInterval = rebuildInterval;
   parameters.neighbourSkin = neighbourSkin;
+  parameters.largeBodyRatio = largeBodyRatio;
   parameters.adaptiveRebuild = adaptiveRebuild;
   parameters.maxNeighbours = maxNeighbours;
   parameters.maxWallNeighbours = maxWallNeighbours;

@@ -103,6 +103,7 @@ public:
 		((bool, adaptiveRebuild, true, , "Skip a due rebuild while no stone can outgrow the lists: largest displacement since the last rebuild plus twice the fastest stone's travel over the next interval below half the skin. Never skipped while the surface moves."))
 		((int, maxNeighbours, 24, , "Candidate partner stones stored per stone [-] (raise it if a step reports an overflow)."))
 		((int, maxWallNeighbours, 8, , "Candidate wall or surface triangles stored per stone [-]."))
+		((Real, largeBodyRatio, 2.5, , "Bodies whose bounding radius exceeds this multiple of the median one (pressure cells, blocks) stay out of the neighbour grid: every other stone lists those within reach, so that maxNeighbours counts them too [-]. <= 0: none."))
 		((string, activeBackend, "", Attr::readonly, "Backend in use after initialization: ``cpu`` or ``cuda``."))
 		((string, backendReason, "", Attr::readonly, "Why this backend runs (e.g. no usable GPU)."))
 		((int, stones, 0, Attr::readonly, "Number of stones handed to the polyhedra system."))

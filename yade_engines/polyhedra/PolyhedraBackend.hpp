@@ -124,6 +124,9 @@ public:
   // Brings back only `parts` (downloadStones | downloadTriangles) of the state: what the facade's per-window accessors
   // (stone states, triangle sums) need, without the contact lists, which dwarf them. Default: everything.
   virtual void downloadParts(HostData& data, int /*parts*/) { download(data); }
+  // The active contacts of the last force evaluation, gathered where the lists live: on the GPU only they cross to
+  // the host (a few per stone, instead of every candidate slot with its history), in no particular order.
+  virtual std::vector<ActiveContact> activeContacts(HostData& data) = 0;
   // One in-memory copy of the state arrays (visitStateArrays) where they live: the host arrays for the CPU, device
   // buffers for CUDA (no transfer). restoreSnapshot puts it back and keeps it.
   virtual void saveSnapshot(HostData& data) = 0;

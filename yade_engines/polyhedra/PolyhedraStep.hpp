@@ -55,6 +55,23 @@ struct ContactOutput {
   double overlap;  // δ [m]
 };
 
+// One active contact of the last force evaluation, gathered where the lists live (PolyhedraBackend::activeContacts):
+// stone `stone` (stored index) and its partner (stored stone index, or triangle index for a wall contact).
+struct ActiveContact {
+  std::int32_t stone;
+  std::int32_t partner;
+  std::int32_t wall;
+  double normal[3]; // stone -> partner
+  ContactOutput output;
+};
+
+// The record of an active slot of stone i's pair list (wall = false) or wall list.
+RAILCOSIM_HOST_DEVICE inline ActiveContact activeContactOf(const ContactSlot& slot, const ContactOutput& output, int i,
+                                                           bool wall) {
+  ActiveContact c{i, slot.partner, wall ? 1 : 0, {slot.normal[0], slot.normal[1], slot.normal[2]}, output};
+  return c;
+}
+
 // Narrow-phase result of one candidate (kept between the two passes over wall candidates).
 struct ContactGeometry {
   bool touching;

@@ -871,42 +871,22 @@ std::vector<double> PolyhedraSystem::triangleContactPoints() const {
 
 std::vector<ContactRecord> PolyhedraSystem::contacts() const {
   Implementation& m = *implementation_;
-  m.sync();
-  const HostData& d = m.data;
   std::vector<ContactRecord> result;
   if (!m.started) return result;
-  for (int i = 0; i < d.stoneCount; ++i) {
-    for (int k = 0; k < d.pairCount[i]; ++k) {
-      const std::size_t index = static_cast<std::size_t>(i) * d.maxPairs + k;
-      const ContactSlot& slot = d.pairSlots[index];
-      if (slot.active != 1) continue;
-      ContactRecord r;
-      r.first = static_cast<std::int32_t>(m.user(i));
-      r.second = static_cast<std::int32_t>(m.user(slot.partner));
-      r.overlap = d.pairOutput[index].overlap;
-      for (int c = 0; c < 3; ++c) {
-        r.normal[c] = slot.normal[c];
-        r.point[c] = d.pairOutput[index].point[c];
-        r.force[c] = d.pairOutput[index].force[c];
-      }
-      result.push_back(r);
+  const std::vector<ActiveContact> active = m.backend->activeContacts(m.data);
+  result.reserve(active.size());
+  for (const ActiveContact& a : active) {
+    ContactRecord r;
+    r.first = static_cast<std::int32_t>(m.user(a.stone));
+    r.wall = a.wall != 0;
+    r.second = r.wall ? a.partner : static_cast<std::int32_t>(m.user(a.partner));
+    r.overlap = a.output.overlap;
+    for (int c = 0; c < 3; ++c) {
+      r.normal[c] = a.normal[c];
+      r.point[c] = a.output.point[c];
+      r.force[c] = a.output.force[c];
     }
-    for (int k = 0; k < d.wallCount[i]; ++k) {
-      const std::size_t index = static_cast<std::size_t>(i) * d.maxWalls + k;
-      const ContactSlot& slot = d.wallSlots[index];
-      if (slot.active != 1) continue;
-      ContactRecord r;
-      r.first = static_cast<std::int32_t>(m.user(i));
-      r.second = slot.partner;
-      r.wall = true;
-      r.overlap = d.wallOutput[index].overlap;
-      for (int c = 0; c < 3; ++c) {
-        r.normal[c] = slot.normal[c];
-        r.point[c] = d.wallOutput[index].point[c];
-        r.force[c] = d.wallOutput[index].force[c];
-      }
-      result.push_back(r);
-    }
+    result.push_back(r);
   }
   return result;
 }

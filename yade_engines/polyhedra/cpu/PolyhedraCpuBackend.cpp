@@ -110,6 +110,20 @@ constexpr int parallelThreshold = 512;
 
 class CpuBackend final : public PolyhedraBackend {
 public:
+  std::vector<ActiveContact> activeContacts(HostData& d) override {
+    std::vector<ActiveContact> result;
+    for (int i = 0; i < d.stoneCount; ++i) {
+      for (int k = 0; k < d.pairCount[i]; ++k) {
+        const std::size_t index = static_cast<std::size_t>(i) * d.maxPairs + k;
+        if (d.pairSlots[index].active == 1) result.push_back(activeContactOf(d.pairSlots[index], d.pairOutput[index], i, false));
+      }
+      for (int k = 0; k < d.wallCount[i]; ++k) {
+        const std::size_t index = static_cast<std::size_t>(i) * d.maxWalls + k;
+        if (d.wallSlots[index].active == 1) result.push_back(activeContactOf(d.wallSlots[index], d.wallOutput[index], i, true));
+      }
+    }
+    return result;
+  }
   void upload(HostData&) override {}
   void uploadSurface(HostData&) override {}
   void download(HostData&) override {}

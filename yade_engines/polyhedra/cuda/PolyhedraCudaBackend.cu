@@ -275,6 +275,25 @@ __global__ void __launch_bounds__(blockSize)
                     previousWallNormal);
 }
 
+// The active contacts of stone i's lists appended to `out` (up to `capacity`; `count` counts them all).
+__global__ void __launch_bounds__(blockSize)
+    activeContactsKernel(SystemView s, ActiveContact* out, unsigned capacity, unsigned* count) {
+  const int i = blockIdx.x * blockDim.x + threadIdx.x;
+  if (i >= s.stoneCount) return;
+  for (int k = 0; k < s.pairCount[i]; ++k) {
+    const long long index = static_cast<long long>(i) * s.maxPairs + k;
+    if (s.pairSlots[index].active != 1) continue;
+    const unsigned slot = atomicAdd(count, 1u);
+    if (slot < capacity) out[slot] = activeContactOf(s.pairSlots[index], s.pairOutput[index], i, false);
+  }
+  for (int k = 0; k < s.wallCount[i]; ++k) {
+    const long long index = static_cast<long long>(i) * s.maxWalls + k;
+    if (s.wallSlots[index].active != 1) continue;
+    const unsigned slot = atomicAdd(count, 1u);
+    if (slot < capacity) out[slot] = activeContactOf(s.wallSlots[index], s.wallOutput[index], i, true);
+  }
+}
+
 constexpr auto startStepKernel = predictKernel<false>;
 constexpr auto nextStepKernel = predictKernel<true>;
 constexpr auto pairFilterKernel = filterKernel<false>;
@@ -364,6 +383,34 @@ public:
     nodePosition_.upload(d.nodePosition, stream_);
     nodeVelocity_.upload(d.nodeVelocity, stream_);
     check(cudaStreamSynchronize(stream_), "surface upload");
+  }
+
+  // Gathered on the device into a buffer that grows to the largest count seen (a second pass when it had to grow).
+  std::vector<ActiveContact> activeContacts(HostData& d) override {
+    std::vector<ActiveContact> result;
+    if (d.stoneCount == 0) return result;
+    if (activeCount_.size() == 0) activeCount_.resize(1);
+    for (int pass = 0; pass < 2; ++pass) {
+      check(cudaMemsetAsync(activeCount_.get(), 0, sizeof(unsigned), stream_), "memset");
+      activeContactsKernel<<<blocks(d.stoneCount), blockSize, 0, stream_>>>(
+          view(d), active_.get(), static_cast<unsigned>(active_.size()), activeCount_.get());
+      check(cudaGetLastError(), "active contacts kernel");
+      unsigned count = 0;
+      check(cudaMemcpyAsync(&count, activeCount_.get(), sizeof(unsigned), cudaMemcpyDeviceToHost, stream_), "count");
+      check(cudaStreamSynchronize(stream_), "active contacts");
+      if (count <= active_.size()) {
+        result.resize(count);
+        if (count > 0) {
+          check(cudaMemcpyAsync(result.data(), active_.get(), count * sizeof(ActiveContact), cudaMemcpyDeviceToHost,
+                                stream_),
+                "active contacts download");
+          check(cudaStreamSynchronize(stream_), "active contacts download");
+        }
+        return result;
+      }
+      active_.resize(count + count / 4);
+    }
+    throw Error("polyhedra CUDA backend: the active contacts changed between two gathering passes");
   }
 
   void downloadParts(HostData& d, int parts) override {
@@ -680,6 +727,8 @@ private:
   DeviceArray<unsigned> candidateCount_;
   DeviceArray<ContactGeometry> wallGeometry_;
   DeviceArray<unsigned> survivorCount_;
+  DeviceArray<ActiveContact> active_; // activeContacts' gathering buffer
+  DeviceArray<unsigned> activeCount_;
   // saveSnapshot's copy of the state buffers (forEachStateBuffer pairs them with the live ones).
   struct SavedState {
     DeviceArray<double> position, velocity, force, torque, reference, nodePosition, nodeVelocity, triangleForce,

@@ -65,11 +65,15 @@ class Sensors:
 
     def record(self, driver, window):
         """What window `window` (1, 2, ... since the load run started) records: interface and surface force, the
-        sensors' top-face forces (every `every` windows, NaN between readings) and heights."""
-        positions, orientations = driver.frames(self.indices)
+        sensors' top-face forces and heights (in the first window and every `every` windows, NaN between: reading
+        the sensors' frames brings every stone's state back from a GPU)."""
         readings = np.full(len(self.indices), np.nan)
-        if window % self.every == 0:
-            readings = self.top_forces(driver.contacts(), positions, orientations)
+        heights = np.full(len(self.indices), np.nan)
+        if window % self.every == 0 or window == 1:
+            positions, orientations = driver.frames(self.indices)
+            heights = positions[:, 2].copy()
+            if window % self.every == 0:
+                readings = self.top_forces(driver.contacts(), positions, orientations)
         return dict(interface_force=np.asarray(driver.interface_force, float),
                     surface_force=np.asarray(driver.surface_force, float), sensor_top_force=readings,
-                    sensor_height=positions[:, 2].copy())
+                    sensor_height=heights)

@@ -84,13 +84,10 @@ int main(int argc, char** argv) {
     const double dt = setup.femTimeStep;
     const double nodalForce = options.number("load") / static_cast<double>(nodes);
 
-    SchemeSettings settings;
-    settings.scheme = scheme;
-    settings.implicit.tolerance = options.number("tolerance"); // read by a scheme that iterates a window
-    settings.implicit.absoluteTolerance = options.number("absolute-tolerance");
-    settings.implicit.maxIterations = static_cast<int>(options.integer("max-iterations"));
-    settings.implicit.relaxation = options.number("relaxation");
-    settings.implicit.aitken = !options.flag("no-aitken");
+    // The implicit settings are read by a scheme that iterates a window.
+    const SchemeSettings settings = SchemeSettings::of(
+        scheme, options.number("tolerance"), options.number("absolute-tolerance"),
+        static_cast<int>(options.integer("max-iterations")), options.number("relaxation"), !options.flag("no-aitken"));
     // The oracle's state and the window to go on from; a resumed run reads them (and the scheme's) from its checkpoint.
     double oracleU = 0.0, oracleV = 0.0, amplitude = 0.0;
     double maxError[3] = {0.0, 0.0,

@@ -47,6 +47,9 @@ struct SchemeSettings {
   CouplingScheme scheme = CouplingScheme::JustInTime;
   ImplicitSettings implicit; // read by the implicit scheme only
   void validate() const;     // throws Error naming the bad setting
+  /// The settings a DEM driver exposes as six values (the scheme and ImplicitSettings' five), validated.
+  static SchemeSettings of(CouplingScheme scheme, double tolerance, double absoluteTolerance, int maxIterations,
+                           double relaxation, bool aitken);
 };
 
 /// How one window ended on the DEM side.

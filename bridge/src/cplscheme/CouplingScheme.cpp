@@ -15,6 +15,19 @@ void SchemeSettings::validate() const {
   if (scheme == CouplingScheme::Implicit) implicit.validate();
 }
 
+SchemeSettings SchemeSettings::of(CouplingScheme scheme, double tolerance, double absoluteTolerance, int maxIterations,
+                                  double relaxation, bool aitken) {
+  SchemeSettings settings;
+  settings.scheme = scheme;
+  settings.implicit.tolerance = tolerance;
+  settings.implicit.absoluteTolerance = absoluteTolerance;
+  settings.implicit.maxIterations = maxIterations;
+  settings.implicit.relaxation = relaxation;
+  settings.implicit.aitken = aitken;
+  settings.validate();
+  return settings;
+}
+
 DemCouplingScheme::DemCouplingScheme(CouplingScheme scheme, DemParticipant& participant, const InterfaceSetup& setup)
     : participant_(participant),
       windowLength_(setup.femTimeStep),

@@ -400,14 +400,9 @@ int rcp_connect(rcp_bed* bed, const char* endpoint, const char* name, const char
   return guarded("rcp_connect", [&] {
     if (bed->coupling) throw std::logic_error("already connected");
     if (bed->stepped) throw std::logic_error("connect before the first step (the surface joins the walls)");
-    railcosim::SchemeSettings settings;
-    settings.scheme = railcosim::parseCouplingScheme(scheme);
-    settings.implicit.tolerance = implicitTolerance;
-    settings.implicit.absoluteTolerance = implicitAbsoluteTolerance;
-    settings.implicit.maxIterations = implicitMaxIterations;
-    settings.implicit.relaxation = implicitRelaxation;
-    settings.implicit.aitken = aitken != 0;
-    settings.validate();
+    const railcosim::SchemeSettings settings =
+        railcosim::SchemeSettings::of(railcosim::parseCouplingScheme(scheme), implicitTolerance,
+                                      implicitAbsoluteTolerance, implicitMaxIterations, implicitRelaxation, aitken != 0);
     railcosim::ParticipantConfig config;
     config.name = name;
     config.endpoint = endpoint;

@@ -107,6 +107,11 @@ FemCouplingEngine::~FemCouplingEngine() {
   }
 }
 
+railcosim::SchemeSettings FemCouplingEngine::schemeSettings() const {
+  return railcosim::SchemeSettings::of(railcosim::parseCouplingScheme(scheme), implicitTolerance,
+                                       implicitAbsoluteTolerance, implicitMaxIterations, implicitRelaxation, aitken);
+}
+
 void FemCouplingEngine::connect() {
   if (connected) return;
   if (endpoint.empty())
@@ -116,14 +121,8 @@ void FemCouplingEngine::connect() {
     throw std::invalid_argument(
         "FemCouplingEngine: 'material' is not set; give the facets a material, e.g. material=O.materials[0].");
   railcosim::SchemeSettings settings;
-  settings.implicit.tolerance = implicitTolerance;
-  settings.implicit.absoluteTolerance = implicitAbsoluteTolerance;
-  settings.implicit.maxIterations = implicitMaxIterations;
-  settings.implicit.relaxation = implicitRelaxation;
-  settings.implicit.aitken = aitken;
   try {
-    settings.scheme = railcosim::parseCouplingScheme(scheme);
-    settings.validate();
+    settings = schemeSettings();
   } catch (const railcosim::Error& e) {
     throw std::invalid_argument(std::string("FemCouplingEngine: ") + e.what() +
                                 " (attributes scheme, implicitTolerance, implicitAbsoluteTolerance, "
@@ -541,14 +540,7 @@ void FemCouplingEngine::readOwnState(std::istream& in, const railcosim::Interfac
   const auto history = FemSurfaceContactEngine::readHistory(state);
   if (meshContact) meshContact->restoreHistory(history);
   std::istringstream schemeState(state.bytes());
-  railcosim::SchemeSettings settings;
-  settings.scheme = railcosim::parseCouplingScheme(scheme);
-  settings.implicit.tolerance = implicitTolerance;
-  settings.implicit.absoluteTolerance = implicitAbsoluteTolerance;
-  settings.implicit.maxIterations = implicitMaxIterations;
-  settings.implicit.relaxation = implicitRelaxation;
-  settings.implicit.aitken = aitken;
-  coupling = railcosim::DemCouplingScheme::resume(settings, *participant, setup, schemeState);
+  coupling = railcosim::DemCouplingScheme::resume(schemeSettings(), *participant, setup, schemeState);
   state.section("window state");
   savedIntegrators.clear();
   for (std::uint64_t k = 0, count = state.u64(); k < count; ++k) {

@@ -21,6 +21,7 @@ namespace railcosim {
 class DemParticipant;
 class DemCouplingScheme;
 struct InterfaceSetup;
+struct SchemeSettings;
 } // namespace railcosim
 
 namespace yade {
@@ -144,6 +145,8 @@ private:
   void orderRestartCheckpoint();
   void writeOwnState(std::ostream& out) const;
   void readOwnState(std::istream& in, const railcosim::InterfaceSetup& setup);
+  // The scheme and implicit attributes as bridge settings (throws railcosim::Error naming a bad one).
+  railcosim::SchemeSettings schemeSettings() const;
   long engineIndex(const Engine* engine) const; // its place in O.engines
 
   std::shared_ptr<railcosim::DemParticipant> participant;

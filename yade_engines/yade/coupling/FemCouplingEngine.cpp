@@ -2,6 +2,7 @@
 // them.
 #include "FemCouplingEngine.hpp"
 
+#include "../common/PythonBytes.hpp"
 #include "railcosim/CouplingScheme.hpp"
 #include "railcosim/Error.hpp"
 #include "railcosim/ForceLumping.hpp"
@@ -40,14 +41,6 @@ std::vector<Vector3r> vectors(const std::vector<double>& values) {
   std::vector<Vector3r> result;
   for (size_t i = 0; i + 2 < values.size(); i += 3) result.emplace_back(values[i], values[i + 1], values[i + 2]);
   return result;
-}
-
-std::string bytesOf(const boost::python::object& value, const char* what) {
-  char* data = nullptr;
-  Py_ssize_t size = 0;
-  if (!PyBytes_Check(value.ptr()) || PyBytes_AsStringAndSize(value.ptr(), &data, &size) != 0)
-    throw std::invalid_argument(std::string("FemCouplingEngine: ") + what + " must be bytes");
-  return std::string(data, static_cast<size_t>(size));
 }
 
 /// An output file's path relative to the working folder (the run's results folder), where it goes back on resume.
@@ -386,7 +379,7 @@ std::string FemCouplingEngine::completeCheckpoint(const std::vector<std::string>
       state.section("dem scene");
       state.bytes(sceneState.str());
       state.section("dem python");
-      state.bytes(bytesOf(pythonState, "completeCheckpoint's pythonState"));
+      state.bytes(bytesFromPython(pythonState, "FemCouplingEngine: completeCheckpoint's pythonState"));
       state.section("end");
       out.close();
       if (!out) throw railcosim::Error("writing " + staging + "/" + stateFile + " failed (disk full?)");
@@ -428,7 +421,7 @@ boost::python::object FemCouplingEngine::restoreCheckpoint() {
   const std::string python = resumedPython;
   resumedScene.clear();
   resumedPython.clear();
-  return boost::python::object(boost::python::handle<>(PyBytes_FromStringAndSize(python.data(), python.size())));
+  return pythonBytes(python);
 }
 
 // This engine's state between two steps: the window, the sums and counters of its attributes, the surface of the

@@ -2,6 +2,7 @@
 #include "QuaternionIntegrator.hpp"
 
 #include "railcosim/StateStream.hpp"
+#include "../common/PythonBytes.hpp"
 
 #include <core/Clump.hpp>
 #include <core/Scene.hpp>
@@ -197,15 +198,11 @@ boost::python::object QuaternionIntegrator::restartState() const {
   railcosim::StateWriter state(out);
   writeSlots(state, slots);
   const std::string bytes = out.str();
-  return boost::python::object(boost::python::handle<>(PyBytes_FromStringAndSize(bytes.data(), bytes.size())));
+  return pythonBytes(bytes);
 }
 
 void QuaternionIntegrator::restoreRestartState(const boost::python::object& saved) {
-  char* data = nullptr;
-  Py_ssize_t size = 0;
-  if (!PyBytes_Check(saved.ptr()) || PyBytes_AsStringAndSize(saved.ptr(), &data, &size) != 0)
-    throw std::invalid_argument("QuaternionIntegrator.restoreRestartState: the state must be bytes");
-  std::istringstream in(std::string(data, static_cast<size_t>(size)));
+  std::istringstream in(bytesFromPython(saved, "QuaternionIntegrator.restoreRestartState: the state"));
   railcosim::StateReader state(in, "of QuaternionIntegrator");
   slots = readSlots(state);
 }

@@ -3,6 +3,7 @@
 
 #include "railcosim/StateStream.hpp"
 
+#include "../common/PythonBytes.hpp"
 #include "../contact/BallastContact.hpp"
 #include "polyhedra/PolyhedraBodyFrames.hpp"
 #include "polyhedra/PolyhedraShapes.hpp"
@@ -423,15 +424,11 @@ boost::python::object PolyhedraGpuEngine::restartState() {
     state.reals({meanContacts, surfaceForce[0], surfaceForce[1], surfaceForce[2]});
   }
   const std::string bytes = out.str();
-  return boost::python::object(boost::python::handle<>(PyBytes_FromStringAndSize(bytes.data(), bytes.size())));
+  return pythonBytes(bytes);
 }
 
 void PolyhedraGpuEngine::restoreRestartState(const boost::python::object& saved) {
-  char* data = nullptr;
-  Py_ssize_t size = 0;
-  if (!PyBytes_Check(saved.ptr()) || PyBytes_AsStringAndSize(saved.ptr(), &data, &size) != 0)
-    throw std::invalid_argument("PolyhedraGpuEngine.restoreRestartState: the state must be bytes");
-  std::istringstream in(std::string(data, static_cast<size_t>(size)));
+  std::istringstream in(bytesFromPython(saved, "PolyhedraGpuEngine.restoreRestartState: the state"));
   railcosim::StateReader state(in, "of PolyhedraGpuEngine");
   state.section("polyhedra engine");
   if (!state.flag()) return; // saved before the system existed: it is built at the first step as then

@@ -126,7 +126,7 @@ with np.load(cache) as saved:
 # 3. The scene of this run: the sample with the run's normal law and μ = 0.7, at rest and stress-free.
 O.periodic = True
 O.cell.hSize = Matrix3(size[0], 0, 0, 0, size[1], 0, 0, 0, size[2])
-material = O.materials.append(ballast_material(p["friction"], rms, plastic))
+material = O.materials.append(ballast_material(p["confinement_friction"], rms, plastic))
 clump_ids = []
 for old, mass, i1, i2, i3 in clumps:
     rows = members[members[:, 0] == old]
@@ -216,7 +216,13 @@ def servo_step():
                 goal = servo["goal_from"] + (goal - servo["goal_from"]) * fraction
             strain = p["servo_gain"] * (s[axis, axis] - goal) / servo["modulus"][axis]
             rates.append(max(-p["servo_max_rate"], min(p["servo_max_rate"], strain / (n * O.dt))))
-    O.cell.velGrad = Matrix3(rates[0], 0, 0, 0, rates[1], 0, 0, 0, rates[2])
+    # Shear stresses to zero (frictionless platens and membrane carry none): ε̇_ij = gain σ_ij/(2G n dt), 2G taken
+    # as the mean affine M (above the affine 2G of a contact network: stable).
+    g = np.zeros((3, 3))
+    for i, j in ((0, 1), (0, 2), (1, 2)):
+        g[i, j] = g[j, i] = max(-p["servo_max_rate"], min(p["servo_max_rate"], p["servo_gain"] * s[i, j] /
+                                                           (np.mean(servo["modulus"]) * n * O.dt)))
+    O.cell.velGrad = Matrix3(rates[0], g[0, 1], g[0, 2], g[1, 0], rates[1], g[1, 2], g[2, 0], g[2, 1], rates[2])
 
 
 def settle(goals, tolerance, max_steps):
@@ -229,8 +235,9 @@ def settle(goals, tolerance, max_steps):
         taken += p["check_steps"]
         now = stress()
         history.append(now)
-        error = max([abs(now[a, a] - goals[a]) for a in range(3) if goals[a] is not None] + [0.0])
-        drift = max(np.max(np.abs(np.diag(now) - np.diag(h))) for h in history[-3:-1])
+        error = max([abs(now[a, a] - goals[a]) for a in range(3) if goals[a] is not None] +
+                    [abs(now[0, 1]), abs(now[0, 2]), abs(now[1, 2])])
+        drift = max(np.max(np.abs(now - h)) for h in history[-3:-1])
         if (len(history) > 2 and error < tolerance and drift < tolerance) or taken >= max_steps:
             return taken, max(error, drift)
 
@@ -278,12 +285,31 @@ def confine(goal):
             return ramp * (p["servo_steps"] + 1) + taken, residual
 
 
+def set_friction(mu):
+    """μ of the material (new contacts) and of every existing contact."""
+    O.materials[material].frictionAngle = math.atan(mu)
+    for i in O.interactions:
+        if i.isReal:
+            i.phys.tangensOfFrictionAngle = mu
+
+
 def confine(goal):
-    """The isotropic confinement: the goal ramps from the present mean stress to goal over confinement_ramp_s, then
-    held until equilibrium (every stress within confinement_tolerance × goal of it and steady)."""
-    ramp = max(1, int(round(p["confinement_ramp_s"] / O.dt)))
+    """The isotropic confinement at μ = confinement_friction: the goal ramps from the present mean stress to goal over
+    confinement_ramp_s, then held until equilibrium (every stress within confinement_tolerance × goal of it and
+    steady); then μ = friction on every contact, and equilibrium again. Contacts formed at the lower μ lie inside the
+    Coulomb cone of the grains' μ: the small-strain probe starts from an elastic network, not from one at the
+    verge of sliding everywhere (README: a sample confined at μ = 0.7 sits at Z ≈ 4, marginally stable)."""
+    set_friction(p["confinement_friction"])
+    steps, residual = confine_at(goal)
+    set_friction(p["friction"])
+    more, residual = confine_at(goal, ramp=False)
+    return steps + more, residual
+
+
+def confine_at(goal, ramp=True):
+    ramp = max(10, int(round(p["confinement_ramp_s"] / O.dt))) if ramp else 0
     servo.update(goals=[goal] * 3, goal_from=stress().trace() / 3.0, start_iter=O.iter, end_iter=O.iter + ramp)
-    for k in range(10):
+    for k in range(10 if ramp else 0):
         servo["modulus"] = affine_modulus()
         O.run(ramp // 10, True)
     servo["goal_from"] = None

@@ -21,8 +21,10 @@ def main(figure, runs):
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
     fig, (a, b) = plt.subplots(1, 2, figsize=(11, 4))
-    print("| run | normal law | clusters | dt [s] | E0 [MPa] | paper E0 [MPa] | Z | Z pairs | e | E/E0 at 1e-4 | DEM wall [s] |")
-    print("|---|---|---|---|---|---|---|---|---|---|---|")
+    print("| run | normal law | clusters | dt [s] | E0 [MPa] | paper E0 [MPa] | Z | Z pairs | e | E/E0 at 1e-5, 1e-4, 1e-3 "
+          "| unloading E [MPa] | ε_a at q0 after unloading [%] | DEM wall [s] |")
+    print("|---|---|---|---|---|---|---|---|---|---|---|---|---|")
+    top = 0.0
     for k, (label, out) in enumerate(runs):
         summary = json.load(open(os.path.join(out, "summary.json")))
         p = summary["parameters"]
@@ -40,12 +42,25 @@ def main(figure, runs):
         eps = np.concatenate([[0.0], loading["axial_strain"], unloading["axial_strain"]])
         q = np.concatenate([[start[1]], loading["q"], unloading["q"]])
         b.plot(eps * 100, (q - start[1]) / 1e3, "o-", ms=2, color=colour, label=label)
-        ratio = m.get("E_over_E0", {}).get("0.0001", float("nan"))
+        ratios = ", ".join(f"{m.get('E_over_E0', {}).get(k, float('nan')):.2f}" for k in ("1e-05", "0.0001", "0.001"))
+        # Unloading: the secant over the first tenth of the peak strain given back, and where q is back at q0.
+        eu, qu = unloading["axial_strain"], unloading["q"]
+        peak_eps, peak_q = float(loading["axial_strain"][-1]), float(loading["q"][-1])
+        tenth = eu <= 0.9 * peak_eps * (1 + 1e-6)
+        unload_e = (peak_q - float(qu[tenth][0])) / (peak_eps - float(eu[tenth][0])) if tenth.any() else float("nan")
+        below = np.nonzero(qu <= start[1])[0]
+        if len(below) and below[0] > 0:
+            k0 = below[0]
+            residual = float(np.interp(start[1], [qu[k0], qu[k0 - 1]], [eu[k0], eu[k0 - 1]]))
+        else:
+            residual = float("nan")
+        top = max(top, m["E0_MPa"])
         print(f"| {label} | {p['normal_model']} | {m['clusters']} | {p['dem_dt']:g} | {m['E0_MPa']:.0f} | "
               f"{paper if paper else '-'} | {m['coordination_number']:.2f} | {m['pair_coordination_number']:.2f} | "
-              f"{m['void_ratio']:.3f} | {ratio:.2f} | {m['dem_wall_time_s']:.0f} |")
+              f"{m['void_ratio']:.3f} | {ratios} | {unload_e / 1e6:.0f} | {residual * 100:.3f} | "
+              f"{m['dem_wall_time_s']:.0f} |")
     a.axvline(E0_STRAIN * 100, color="0.7", lw=0.8)
-    a.set_ylim(bottom=0)
+    a.set_ylim(0, 1.6 * top)  # a contact slip or a tangential release shows as one far-off tangent; the axis keeps E0
     a.set_xlabel("axial strain ε_a [%]")
     a.set_ylabel("tangent Young's modulus E [MPa]")
     a.set_title("E(ε_a); stars: the paper's E0 (elastic PP 90, elasto-plastic 128 MPa)", fontsize=9)

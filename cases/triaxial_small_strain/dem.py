@@ -360,14 +360,15 @@ for target in unload_levels:
         break
 
 # 7. The small-strain loop from the confined state (hysteresis: none for elastic normal laws, a loop for the
-#    elasto-plastic one), then the same sample confined at pressure_factor × p for the E0 scaling with p.
+#    elasto-plastic one), then (elastic laws) the same sample confined at pressure_factor × p for the E0 scaling
+#    with p.
 O.loadTmp("confined")
 reference_size = cell_size()
 loop_levels = strain_levels(p["first_strain"], p["loop_strain"], p["levels_per_decade"])
 probe("loop_loading", loop_levels, pressure)
 probe("loop_unloading", [p["loop_strain"] - d for d in strain_levels(p["first_strain"], p["loop_strain"],
                                                                       p["levels_per_decade"])[:-1]] + [0.0], pressure)
-if p["pressure_factor"] > 0:
+if p["pressure_factor"] > 0 and not plastic:  # the scaling check is for elastic networks only (case.py)
     O.loadTmp("confined")
     reference_size = cell_size()
     steps, residual = confine(p["pressure_factor"] * pressure)

@@ -123,7 +123,7 @@ preparation_s = time.monotonic() - started
 with np.load(cache) as saved:
     members, clumps, size, solid = saved["members"], saved["clumps"], saved["size"], float(saved["solid"])
 
-# 3. The scene of this run: the sample with the run's normal law and μ = 0.7, at rest and stress-free.
+# 3. The scene of this run: the sample with the run's normal law and μ = confinement_friction, at rest, stress-free.
 O.periodic = True
 O.cell.hSize = Matrix3(size[0], 0, 0, 0, size[1], 0, 0, 0, size[2])
 material = O.materials.append(ballast_material(p["confinement_friction"], rms, plastic))
@@ -242,7 +242,7 @@ def settle(goals, tolerance, max_steps):
             return taken, max(error, drift)
 
 
-def record_state(phase, strain_target=0.0, steps=0, residual=0.0):
+def record_state(phase, steps=0, residual=0.0):
     s = stress()
     eps = strains()
     contacts, pairs, virgin, ratio = contact_census()
@@ -264,25 +264,6 @@ def record_state(phase, strain_target=0.0, steps=0, residual=0.0):
 PHASES = ["confined", "loading", "unloading", "loop_loading", "loop_unloading", "confined_2", "probe_2"]
 from railcosim import results  # noqa: E402
 dem.recorder = results.DemRecorder(out)
-
-
-def confine(goal):
-    """The isotropic confinement: the goal ramps from the present mean stress to goal over confinement_ramp_s, then
-    held until equilibrium (confinement_tolerance × goal)."""
-    start = stress().trace() / 3.0
-    ramp = max(1, int(round(p["confinement_ramp_s"] / (p["servo_steps"] * O.dt))))
-    for k in range(1, ramp + 1):
-        if k % 10 == 1:
-            servo["modulus"] = affine_modulus()
-        g = start + (goal - start) * k / ramp
-        servo_chunk([g, g, g])
-    taken = 0
-    while True:  # settled once the network's stiffness no longer changes between two settling rounds
-        servo["modulus"] = affine_modulus()
-        more, residual = settle([goal] * 3, p["confinement_tolerance"] * goal, p["confinement_max_steps"] // 4)
-        taken += more
-        if residual < p["confinement_tolerance"] * goal or taken >= p["confinement_max_steps"]:
-            return ramp * (p["servo_steps"] + 1) + taken, residual
 
 
 def set_friction(mu):
@@ -307,6 +288,7 @@ def confine(goal):
 
 
 def confine_at(goal, ramp=True):
+    """Servo to the isotropic goal (ramped over confinement_ramp_s, or at once) and on to equilibrium."""
     ramp = max(10, int(round(p["confinement_ramp_s"] / O.dt))) if ramp else 0
     servo.update(goals=[goal] * 3, goal_from=stress().trace() / 3.0, start_iter=O.iter, end_iter=O.iter + ramp)
     for k in range(10 if ramp else 0):
@@ -340,13 +322,13 @@ def probe(phase, levels, goal):
         O.run(p["ramp_steps"], True)
         tolerance = max(p["probe_tolerance"] * 600.0 * goal * abs(target - now), p["probe_tolerance_floor_Pa"])
         taken, residual = settle([goal, goal, None], tolerance, p["probe_max_steps"])
-        rows.append(record_state(phase, target, p["ramp_steps"] + taken, residual))
+        rows.append(record_state(phase, p["ramp_steps"] + taken, residual))
     return rows
 
 
 # 6. Confinement to p, then the probe: loading to probe_strain, unloading until q is back to its confined value.
 steps, residual = confine(pressure)
-confined = record_state("confined", 0.0, steps, residual)
+confined = record_state("confined", steps, residual)
 reference_size = cell_size()
 O.saveTmp("confined")
 q0 = confined["q"]
@@ -372,7 +354,7 @@ if p["pressure_factor"] > 0 and not plastic:  # the scaling check is for elastic
     O.loadTmp("confined")
     reference_size = cell_size()
     steps, residual = confine(p["pressure_factor"] * pressure)
-    record_state("confined_2", 0.0, steps, residual)
+    record_state("confined_2", steps, residual)
     reference_size = cell_size()
     probe("probe_2", strain_levels(p["first_strain"], p["scaling_strain"], p["levels_per_decade"]),
           p["pressure_factor"] * pressure)

@@ -21,7 +21,7 @@ def main(figure, runs):
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
     fig, (a, b) = plt.subplots(1, 2, figsize=(11, 4))
-    print("| run | normal law | clusters | dt [s] | E0 [MPa] | paper E0 [MPa] | Z | Z pairs | e | E/E0 at 1e-5, 1e-4, 1e-3 "
+    print("| run | normal law | clusters | dt [s] | E0 [MPa] | paper E0 [MPa] | Z | Z pairs | e | E/E0 at ε_a = 1e-5, 1e-4, 1e-3 "
           "| unloading E [MPa] | ε_a at q0 after unloading [%] | DEM wall [s] |")
     print("|---|---|---|---|---|---|---|---|---|---|---|---|---|")
     top = 0.0

@@ -2,7 +2,6 @@
 # mirror walls is pushed along its axis at a set speed, vertically free under its weight and the vertical load;
 # the ballast's reaction is recorded per face. Irazábal (2017) §6.4 (Tables 6.6, 6.7); lab: van 't Zand & Moraal (1997).
 # Run by `railcosim run` as: railcosim yade dem.py PARAMETERS.json ENDPOINT OUTDIR (the endpoint is unused).
-import hashlib
 import json
 import math
 import os
@@ -12,7 +11,7 @@ import time
 import numpy as np
 from yade import pack as yade_pack
 
-from railcosim import results
+from railcosim import bedcache, results
 
 parameters_path, _, out = sys.argv[1:4]
 with open(parameters_path) as f:
@@ -109,9 +108,7 @@ sleeper = O.bodies.append(utils.box(center=(0, 0, 10.0), extents=(0.5 * L, 0.5 *
 PACKING_KEYS = ("sleeper_length", "sleeper_width", "sleeper_height", "sleeper_spacing", "ballast_depth",
                 "shoulder_width", "shoulder_slope", "crest_drop_m", "size_scale", "packing_young", "ballast_poisson",
                 "ballast_density", "restitution", "settle_s", "dt_safety", "seed")
-key = hashlib.sha256(json.dumps({k: p[k] for k in PACKING_KEYS}, sort_keys=True).encode()).hexdigest()[:16]
-cache = os.path.join(os.environ.get("RAILCOSIM_CACHE", os.path.join(out, "cache")), "beds", "lateral_resistance",
-                     f"bed-{key}.npz")
+cache = bedcache.path("lateral_resistance", {k: p[k] for k in PACKING_KEYS}, fallback=os.path.join(out, "cache"))
 
 
 def pack_bed():
@@ -144,17 +141,17 @@ def pack_bed():
     return spheres, bed, float(np.max(bed[under, 2] + bed[under, 3]) + 0.5 * H)
 
 
-if os.path.isfile(cache):
-    with np.load(cache) as saved:
-        bed, sleeper_z = saved["bed"], float(saved["sleeper_z"])
-    spheres = [O.bodies.append(utils.sphere(row[:3], row[3], material=packing[BALLAST])) for row in bed]
-    print(f"packed bed from {cache}", flush=True)
-else:
-    spheres, bed, sleeper_z = pack_bed()
-    os.makedirs(os.path.dirname(cache), exist_ok=True)
-    partial = f"{cache}.{os.getpid()}.npz"
-    np.savez(partial, bed=bed, sleeper_z=sleeper_z)
-    os.replace(partial, cache)  # whole or not at all, if two runs pack the same bed at once
+with bedcache.exclusive(cache) as found:
+    if found:
+        with np.load(cache) as saved:
+            bed, sleeper_z = saved["bed"], float(saved["sleeper_z"])
+        spheres = [O.bodies.append(utils.sphere(row[:3], row[3], material=packing[BALLAST])) for row in bed]
+        print(f"packed bed from {cache}", flush=True)
+    else:
+        spheres, bed, sleeper_z = pack_bed()
+        partial = f"{cache}.{os.getpid()}.npz"
+        np.savez(partial, bed=bed, sleeper_z=sleeper_z)
+        os.replace(partial, cache)  # whole or not at all
 O.bodies[sleeper].state.pos = Vector3(0, 0, sleeper_z)
 O.engines[1].doSort = True  # the collider
 

@@ -9,7 +9,6 @@ goes, what is trimmed) is made here, from the states the stage reports. Given th
 same bed, bit for bit, on the CPU reference with one thread (tests/cases/sleeper_driver_equivalence.py).
 numpy and h5py only.
 """
-import fcntl
 import json
 import math
 import os
@@ -21,6 +20,7 @@ import numpy as np
 CASE_DIR = os.path.dirname(os.path.abspath(__file__))
 sys.path.insert(0, CASE_DIR)
 import scene as sc  # noqa: E402
+from railcosim import bedcache  # noqa: E402  (scene.py put it on the path)
 
 STONE, SENSOR = 0, 1
 # Wall candidates per stone: a large stone at a box corner under the sleeper meets the walls' and the sleeper's
@@ -503,11 +503,7 @@ def main(argv, Stage):
     """bed.py's command line: prepares the bed of the parameters with `Stage`'s driver unless its file exists."""
     p, out = parameters_from_command_line(argv)
     path = sc.bed_path(p)
-    os.makedirs(os.path.dirname(path), exist_ok=True)
-    # One preparation per bed at a time: parallel runs of a campaign wait for the first one's file.
-    with open(path + ".lock", "w") as lock:
-        fcntl.flock(lock, fcntl.LOCK_EX)
-        reused = os.path.isfile(path)
+    with bedcache.exclusive(path) as reused:
         if reused:
             say(f"bed found: {path} (key {sc.bed_key(p)}), no preparation")
         else:

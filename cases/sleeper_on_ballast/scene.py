@@ -14,8 +14,6 @@ folder (bed.py, dem.py) and a driver without YADE read one description:
 Frame: the bed box spans x in [0, bed_length_m], y in [0, bed_width_m], z in [0, 0.8] (floor at z = 0); the
 sleeper is centred on the box in x and y. Numpy and the shape library only (/usr/bin/python3 or YADE's Python).
 """
-import hashlib
-import json
 import math
 import os
 import sys
@@ -24,8 +22,9 @@ import numpy as np
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 ROOT = os.environ.get("RAILCOSIM_ROOT", os.path.dirname(os.path.dirname(HERE)))
-sys.path.insert(0, os.path.join(ROOT, "yade_engines", "clusters"))
+sys.path[:0] = [os.path.join(ROOT, "yade_engines", "clusters"), os.path.join(ROOT, "python")]
 import ballast_clusters  # noqa: E402  (shape library, rotations, polyhedron mass properties)
+from railcosim import bedcache  # noqa: E402
 
 # Ullrich 2022 Table 6.1 and Song et al. 2019 (fixed by the experiment, not parameters of the case).
 SEED_BED = (3.2, 1.0, 0.8)            # m, the box of the test
@@ -409,16 +408,16 @@ BED_PARAMETERS = ("bed_length_m", "bed_width_m", "bed_height_m", "sensor_depth_m
 
 def bed_key(p):
     """Cache key of a bed: a hash of the parameters that define it (BED_PARAMETERS) and of the file layout."""
-    defining = {name: p[name] for name in BED_PARAMETERS}
-    text = json.dumps({"format": BED_FORMAT, **defining}, sort_keys=True)
-    return hashlib.sha256(text.encode()).hexdigest()[:16]
+    return bedcache.key(bed_values(p))
+
+
+def bed_values(p):
+    return {"format": BED_FORMAT, **{name: p[name] for name in BED_PARAMETERS}}
 
 
 def bed_path(p):
     """Where the bed of these parameters is kept: bed_cache_dir (default $RAILCOSIM_CACHE/beds/sleeper_on_ballast)."""
-    folder = p["bed_cache_dir"] or os.path.join(os.environ.get("RAILCOSIM_CACHE", os.path.expanduser("~/.cache/railcosim")),
-                                                "beds", "sleeper_on_ballast")
-    return os.path.join(folder, f"bed-{bed_key(p)}.h5")
+    return bedcache.path("sleeper_on_ballast", bed_values(p), suffix=".h5", folder=p["bed_cache_dir"])
 
 
 def describe(p):

@@ -2,8 +2,6 @@
 # periodic cell at void ratio 0.70, confined isotropically by a stress servo on the cell, then probed axially in
 # quasi-static strain steps to 0.1 % and unloaded (Tolomeo & McDowell 2022 §3). Run by `railcosim run` as:
 # railcosim yade dem.py PARAMETERS.json ENDPOINT OUTDIR (DEM-only case: the endpoint is not used)
-import hashlib
-import json
 import math
 import os
 import sys
@@ -11,6 +9,7 @@ import time
 
 import numpy as np
 
+from railcosim import bedcache
 from railcosim.dem import StandaloneDem
 
 dem = StandaloneDem()
@@ -60,9 +59,8 @@ def cell_size():
 #    depends only on the parameters below, so it is kept in a cache and reused by every normal law and pressure.
 SAMPLE_PARAMETERS = ("clusters", "cluster_shapes", "cluster_level", "void_ratio", "particle_density", "particle_young",
                      "particle_poisson", "preparation_time_s", "dem_dt", "local_damping", "seed")
-key = hashlib.sha256(json.dumps({k: p[k] for k in SAMPLE_PARAMETERS}, sort_keys=True).encode()).hexdigest()[:16]
-cache = os.path.join(os.environ.get("RAILCOSIM_CACHE", os.path.join(out, "cache")), "beds", "triaxial_small_strain",
-                     f"sample-{key}.npz")
+cache = bedcache.path("triaxial_small_strain", {k: p[k] for k in SAMPLE_PARAMETERS}, name="sample",
+                      fallback=os.path.join(out, "cache"))
 
 
 def prepare_sample():
@@ -111,14 +109,14 @@ def prepare_sample():
 
 
 started = time.monotonic()
-if not os.path.isfile(cache):
-    members, clumps, size, solid = prepare_sample()
-    os.makedirs(os.path.dirname(cache), exist_ok=True)
-    partial = f"{cache}.{os.getpid()}.npz"
-    np.savez(partial, members=members, clumps=clumps, size=size, solid=solid)
-    os.replace(partial, cache)  # whole or not at all, if two runs prepare the same sample at once
-    O.reset()
-    print(f"sample prepared in {time.monotonic() - started:.0f} s: {cache}", flush=True)
+with bedcache.exclusive(cache) as found:
+    if not found:
+        members, clumps, size, solid = prepare_sample()
+        partial = f"{cache}.{os.getpid()}.npz"
+        np.savez(partial, members=members, clumps=clumps, size=size, solid=solid)
+        os.replace(partial, cache)  # whole or not at all
+        O.reset()
+        print(f"sample prepared in {time.monotonic() - started:.0f} s: {cache}", flush=True)
 preparation_s = time.monotonic() - started
 with np.load(cache) as saved:
     members, clumps, size, solid = saved["members"], saved["clumps"], saved["size"], float(saved["solid"])

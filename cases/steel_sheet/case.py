@@ -96,7 +96,7 @@ class SteelSheet(Case):
         reference = {"beverloo_mass_flow_kg_per_s": beverloo,
                      "seed002": {"flow_peak_time_s": 0.25, "flow_drop_s": 0.3, "flow_constant_s": [0.3, 1.5],
                                  "free_fall_time_s": math.sqrt(2.0 * p["fall_height"] / GRAVITY),
-                                 "note": "Ullrich 2022 Fig. 5.3/5.4 give curves only; digest seed002.md §4(b)"}}
+                                 "note": "Ullrich 2022 sec. 5.3-5.5: Figs. 5.3/5.4 give curves only"}}
         relative_error, checks = {"interface_energy": results.interface_energy_error(dem)}, []
         checks.append({"name": "grains through the sheet", "value": float(np.max(series["through_sheet"])), "limit": 0.0})
         # The final span (average_s): the grains at rest (smoke) or the steady stream's plateau (desk). Its mean

@@ -105,7 +105,7 @@ def build_box(column_top):
 
 KEYS = ("box_length", "box_width", "box_height", "shear_distance", "grading_sieves_mm", "grading_passing", "size_scale",
         "void_ratio", "cluster_level", "ballast_young", "ballast_poisson", "ballast_density", "ballast_friction",
-        "wall_young", "restitution", "dem_dt", "fill_s", "rest_speed", "packing_damping", "seed")
+        "wall_young", "restitution", "fill_dt", "fill_s", "rest_speed", "packing_damping", "seed")
 key = hashlib.sha256(json.dumps({k: p[k] for k in KEYS}, sort_keys=True).encode()).hexdigest()[:16]
 cache_dir = os.path.join(os.environ.get("RAILCOSIM_CACHE", os.path.join(out, "cache")), "beds", "direct_shear")
 cache = os.path.join(cache_dir, f"sample-{key}.yade.gz")
@@ -134,7 +134,7 @@ else:
     lower, upper = build_box(column_top + 0.05)
     clumps = [pack_ballast.addClusterStone(s, c, O.materials[fill_ballast]) for s, c in zip(stones, centres)]
     O.engines = engines(p["packing_damping"])
-    O.dt = p["dem_dt"]
+    O.dt = p["fill_dt"]
     start = time.monotonic()
     # Until every stone is slower than rest_speed (checked every 0.05 s), fill_s at most.
     chunk = max(1, int(round(0.05 / O.dt)))

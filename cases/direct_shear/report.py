@@ -29,7 +29,7 @@ def compare(runs, path):
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
-    fig, axes = plt.subplots(2, 2, figsize=(11, 7.5), sharex="col")
+    fig, axes = plt.subplots(2, len(runs), figsize=(5.5 * len(runs), 7.5), sharex="col", squeeze=False)
     for col, (label, (summary, tests)) in enumerate(runs.items()):
         for k, (test, s) in enumerate(tests):
             name = f"σ_n = {test['normal_stress_Pa'] / 1e3:g} kPa"

@@ -47,11 +47,17 @@ def material(young, friction, exponent=0.0, stress=0.0):
                                          rollingFriction=0.0, frictionExponent=exponent, maxContactStress=stress))
 
 
-fill_ballast = material(p["ballast_young"], p["ballast_friction"])
-fill_wall = material(p["wall_young"], 0.0)
-test_ballast = material(p["ballast_young"], p["ballast_friction"], p["friction_exponent"] if sdf else 0.0,
-                        p["max_contact_stress"] if sdf else 0.0)
-test_wall = material(p["wall_young"], p["wall_friction"])
+def materials():
+    """The deposition's and the test's materials, as ids in O.materials: made anew after each O.load (a loaded scene
+    brings the materials it was saved with)."""
+    ids = [material(p["ballast_young"], p["ballast_friction"]), material(p["wall_young"], 0.0),
+           material(p["ballast_young"], p["ballast_friction"], p["friction_exponent"] if sdf else 0.0,
+                    p["max_contact_stress"] if sdf else 0.0),
+           material(p["wall_young"], p["wall_friction"])]
+    return ids
+
+
+fill_ballast, fill_wall, test_ballast, test_wall = materials()
 
 # 3. Stones: library clusters drawn to the grading until the solid volume of the void ratio is reached.
 rng = np.random.default_rng(p["seed"])
@@ -215,6 +221,7 @@ tests = []
 for n, sigma in enumerate(stresses):
     if n:
         O.load(cache)
+    fill_ballast, fill_wall, test_ballast, test_wall = materials()
     for i in members:
         O.bodies[i].material = O.materials[test_ballast]
     for i in lower + upper:
@@ -256,6 +263,7 @@ for n, sigma in enumerate(stresses):
           f"{void_ratio:.3f}" + (f"; friction law: worst {check[0]:.2e} over {check[3]} quasi-static contacts of "
                                  f"{check[4]}, {100 * check[1]:.0f} % reduced, mean mu {check[2]:.3f}" if check else ""),
           flush=True)
+    momentum_start = sum(O.bodies[c].state.mass * O.bodies[c].state.vel[0] for c in clumps)
     for i in lower:
         O.bodies[i].state.vel = Vector3(v, 0, 0)
     x0 = O.bodies[lower[0]].state.pos[0]
@@ -284,6 +292,7 @@ for n, sigma in enumerate(stresses):
                 "shear_stress": mean.get("upper_force_x", 0.0) / contact_area, "normal_stress": normal / contact_area,
                 "plate_contact_force_z": mean.get("plate_contact_force_z", 0.0), "applied_load": load,
                 "dilation": pb.state.pos[2] - 0.01 - h0, "kinetic_energy": utils.kineticEnergy(),
+                "momentum_x": sum(O.bodies[c].state.mass * O.bodies[c].state.vel[0] for c in clumps),
                 "normal_stress_applied": sigma}
 
     steps = int(round(p["shear_distance"] / (v * O.dt)))
@@ -297,7 +306,7 @@ for n, sigma in enumerate(stresses):
     dem.run(steps * O.dt, record, per_record * O.dt,
             progress=lambda last: f"sigma_n {sigma / 1e3:g} kPa  u={last['shear_displacement'] * 1e3:.1f} mm  "
                                   f"tau={last['shear_stress'] / 1e3:.1f} kPa  dh={last['dilation'] * 1e3:.2f} mm")
-    tests.append({"normal_stress_Pa": sigma, "first_record": first, "records": len(dem.recorder) - first,
+    tests.append({"normal_stress_Pa": sigma, "first_record": first, "momentum_x_start": momentum_start, "records": len(dem.recorder) - first,
                   "sample_height_m": h0, "void_ratio": void_ratio, "rest_wall_time_s": rest_wall,
                   "shear_wall_time_s": time.monotonic() - start, "shear_steps": steps, "spheres": len(members),
                   "friction_check": None if check is None else {"worst_relative_deviation": check[0],

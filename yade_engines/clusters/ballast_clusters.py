@@ -458,8 +458,9 @@ def loadShapeLibrary(path=DEFAULT_LIBRARY):
 
 
 def sampleBallastStones(library, rng, totalSolidVolume, level="fine", density=2700.0,
-                        targetPassing=DEFAULT_TARGET_PASSING):
-    """Stones for a bed: draws (shape, sieve size, orientation) until the solid volume reaches the target.
+                        targetPassing=DEFAULT_TARGET_PASSING, sieves=EN13450_SIEVES_MM):
+    """Stones for a bed: draws (shape, sieve size, orientation) until the solid volume reaches the target; sizes follow
+    the grading targetPassing [%] at `sieves` [mm] (default: the middle of the EN 13450 band).
 
     Returns a list of dicts: shape name, sieveSize [m], scale (= sieve size, the library is at unit size),
     rotation (3x3, body -> world), spheres (k, 4) scaled, in body axes, mass [kg] and principal inertia
@@ -471,7 +472,7 @@ def sampleBallastStones(library, rng, totalSolidVolume, level="fine", density=27
     stones = []
     volume = 0.0
     while volume < totalSolidVolume:
-        sizeMillimetres = sampleSieveSizes(rng, 1, targetPassing)[0]
+        sizeMillimetres = sampleSieveSizes(rng, 1, targetPassing, sieves)[0]
         shape = shapes[int(rng.integers(len(shapes)))]
         cluster = shape["clusters"][level]
         scale = sizeMillimetres * 1e-3

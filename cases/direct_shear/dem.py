@@ -2,7 +2,6 @@
 # free plate and sheared by moving the lower half, once per normal stress from the same packed sample.
 # Irazábal (2017) §6.3 (Tables 6.3, 6.4); laboratory test: Indraratna et al. (2011).
 # Run by `railcosim run` as: railcosim yade dem.py PARAMETERS.json ENDPOINT OUTDIR (the endpoint is unused).
-import hashlib
 import json
 import math
 import os
@@ -11,6 +10,7 @@ import time
 
 import numpy as np
 
+from railcosim import bedcache
 from railcosim.dem import StandaloneDem
 
 dem = StandaloneDem()
@@ -112,9 +112,8 @@ def build_box(column_top):
 KEYS = ("box_length", "box_width", "box_height", "shear_distance", "grading_sieves_mm", "grading_passing", "size_scale",
         "void_ratio", "cluster_level", "ballast_young", "ballast_poisson", "ballast_density", "ballast_friction",
         "wall_young", "restitution", "fill_dt", "fill_s", "rest_speed", "packing_damping", "seed")
-key = hashlib.sha256(json.dumps({k: p[k] for k in KEYS}, sort_keys=True).encode()).hexdigest()[:16]
-cache_dir = os.path.join(os.environ.get("RAILCOSIM_CACHE", os.path.join(out, "cache")), "beds", "direct_shear")
-cache = os.path.join(cache_dir, f"sample-{key}.yade.gz")
+cache = bedcache.path("direct_shear", {k: p[k] for k in KEYS}, name="sample", suffix=".yade.gz",
+                      fallback=os.path.join(out, "cache"))
 
 
 def engines(damping):
@@ -130,36 +129,36 @@ def engines(damping):
 # 5. Pre-calculation (Irazábal §6.3.2, Fig. 6.10): the loose cloud falls into the box and comes to rest; kept in the
 #    cache (the whole scene) and reused by every normal stress and by runs that differ only in the test's settings.
 fill_wall_time = 0.0
-if os.path.isfile(cache):
-    O.load(cache)
-    with open(cache + ".json") as f:
-        ids = json.load(f)
-    print(f"packed sample from {cache}", flush=True)
-else:
-    centres, column_top = place(rng)
-    lower, upper = build_box(column_top + 0.05)
-    clumps = [pack_ballast.addClusterStone(s, c, O.materials[fill_ballast]) for s, c in zip(stones, centres)]
-    O.engines = engines(p["packing_damping"])
-    O.dt = p["fill_dt"]
-    start = time.monotonic()
-    # Until every stone is slower than rest_speed (checked every 0.05 s), fill_s at most.
-    chunk = max(1, int(round(0.05 / O.dt)))
-    while O.time < p["fill_s"]:
-        O.run(chunk, True)
-        fastest = max(O.bodies[c].state.vel.norm() for c in clumps)
-        if fastest < p["rest_speed"]:
-            break
-    print(f"deposition: {O.time:.2f} s simulated, fastest stone {fastest:.3f} m/s", flush=True)
-    fill_wall_time = time.monotonic() - start
-    ids = {"lower": lower, "upper": upper, "clumps": clumps, "fill_wall_time_s": fill_wall_time}
-    os.makedirs(cache_dir, exist_ok=True)
-    partial = f"{cache}.{os.getpid()}"
-    O.save(partial + ".yade.gz")
-    with open(partial + ".json", "w") as f:
-        json.dump(ids, f)
-    os.replace(partial + ".json", cache + ".json")
-    os.replace(partial + ".yade.gz", cache)
-    print(f"deposited in {fill_wall_time:.0f} s", flush=True)
+with bedcache.exclusive(cache) as found:
+    if found:
+        O.load(cache)
+        with open(cache + ".json") as f:
+            ids = json.load(f)
+        print(f"packed sample from {cache}", flush=True)
+    else:
+        centres, column_top = place(rng)
+        lower, upper = build_box(column_top + 0.05)
+        clumps = [pack_ballast.addClusterStone(s, c, O.materials[fill_ballast]) for s, c in zip(stones, centres)]
+        O.engines = engines(p["packing_damping"])
+        O.dt = p["fill_dt"]
+        start = time.monotonic()
+        # Until every stone is slower than rest_speed (checked every 0.05 s), fill_s at most.
+        chunk = max(1, int(round(0.05 / O.dt)))
+        while O.time < p["fill_s"]:
+            O.run(chunk, True)
+            fastest = max(O.bodies[c].state.vel.norm() for c in clumps)
+            if fastest < p["rest_speed"]:
+                break
+        print(f"deposition: {O.time:.2f} s simulated, fastest stone {fastest:.3f} m/s", flush=True)
+        fill_wall_time = time.monotonic() - start
+        ids = {"lower": lower, "upper": upper, "clumps": clumps, "fill_wall_time_s": fill_wall_time}
+        partial = f"{cache}.{os.getpid()}"
+        O.save(partial + ".yade.gz")
+        with open(partial + ".json", "w") as f:
+            json.dump(ids, f)
+        os.replace(partial + ".json", cache + ".json")
+        os.replace(partial + ".yade.gz", cache)
+        print(f"deposited in {fill_wall_time:.0f} s", flush=True)
 lower, upper, clumps = ids["lower"], ids["upper"], ids["clumps"]
 members = [b.id for b in O.bodies if b.isClumpMember]
 print(f"{len(clumps)} stones ({len(members)} spheres, sieve {sieves[0]:.1f}-{sieves[-1]:.1f} mm), solid volume "

@@ -2,7 +2,7 @@
 # Run by `railcosim run` as: railcosim yade dem.py PARAMETERS.json ENDPOINT OUTDIR
 import math
 
-from railcosim.dem import CoupledDem
+from railcosim.dem import CoupledDem, hertz_mindlin_contacts
 
 GRAVITY = 9.81
 
@@ -26,13 +26,7 @@ mass = sum(O.bodies[b].state.mass for b in balls)
 # 3. Engines: Hertz-Mindlin contacts damped by the restitution coefficient (Thornton 2013); the coupling
 #    engine after the contact loop and before the integrator.
 coupling = dem.coupling_engine(material=O.materials[surface_mat], restitution=p["restitution"])
-O.engines = [
-    ForceResetter(),
-    InsertionSortCollider([Bo1_Sphere_Aabb(), Bo1_Facet_Aabb()]),
-    InteractionLoop([Ig2_Sphere_Sphere_ScGeom(), Ig2_Facet_Sphere_ScGeom()],
-                    [Ip2_FrictMat_FrictMat_MindlinPhys(en=MatchMaker(algo="val", val=p["restitution"]),
-                                                       es=MatchMaker(algo="val", val=p["restitution"]))],
-                    [Law2_ScGeom_MindlinPhys_Mindlin()]),
+O.engines = hertz_mindlin_contacts(p["restitution"]) + [
     coupling,
     NewtonIntegrator(damping=0.0, gravity=(0, 0, -GRAVITY)),
 ]

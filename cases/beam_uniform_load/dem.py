@@ -7,7 +7,7 @@ import sys
 
 import numpy as np
 
-from railcosim.dem import CoupledDem
+from railcosim.dem import CoupledDem, hertz_mindlin_contacts
 
 dem = CoupledDem()  # the run's parameters, endpoint and results folder, from `railcosim run`
 p = dem.parameters
@@ -191,12 +191,7 @@ count = len(particle_ids)
 #    coupling engine drives the polyhedra engine one window at a time, the beam's face one of its walls.
 def yade_engines(coupling):
     return [
-        ForceResetter(),
-        InsertionSortCollider([Bo1_Sphere_Aabb(), Bo1_Facet_Aabb(), Bo1_Wall_Aabb()]),
-        InteractionLoop([Ig2_Sphere_Sphere_ScGeom(), Ig2_Facet_Sphere_ScGeom(), Ig2_Wall_Sphere_ScGeom()],
-                        [Ip2_FrictMat_FrictMat_MindlinPhys(en=MatchMaker(algo="val", val=p["restitution"]),
-                                                           es=MatchMaker(algo="val", val=p["restitution"]))],
-                        [Law2_ScGeom_MindlinPhys_Mindlin()]),
+        *hertz_mindlin_contacts(p["restitution"], walls=True),
     ] + ([coupling] if coupling else []) + [
         (NewtonIntegrator if shape == "sphere" else QuaternionIntegrator)(damping=p["local_damping"], gravity=(0, 0, -9.81)),
     ]

@@ -5,7 +5,7 @@ import random
 
 import numpy as np
 
-from railcosim.dem import CoupledDem
+from railcosim.dem import CoupledDem, hertz_mindlin_contacts
 
 dem = CoupledDem()  # the run's parameters, endpoint and results folder, from `railcosim run`
 p = dem.parameters
@@ -57,12 +57,7 @@ spheres = [O.bodies.append(utils.sphere(c, R, material=particle_mat)) for c in c
 #    dissipation in its contacts; the coupling engine between the contact loop and the integrator.
 coupling = dem.coupling_engine(material=O.materials[sleeper_mat], restitution=p["restitution"])
 O.engines = [
-    ForceResetter(),
-    InsertionSortCollider([Bo1_Sphere_Aabb(), Bo1_Facet_Aabb(), Bo1_Wall_Aabb()]),
-    InteractionLoop([Ig2_Sphere_Sphere_ScGeom(), Ig2_Facet_Sphere_ScGeom(), Ig2_Wall_Sphere_ScGeom()],
-                    [Ip2_FrictMat_FrictMat_MindlinPhys(en=MatchMaker(algo="val", val=p["restitution"]),
-                                                       es=MatchMaker(algo="val", val=p["restitution"]))],
-                    [Law2_ScGeom_MindlinPhys_Mindlin()]),
+    *hertz_mindlin_contacts(p["restitution"], walls=True),
     coupling,
     NewtonIntegrator(damping=0.0, gravity=(0, 0, -9.81)),
 ]

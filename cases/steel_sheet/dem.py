@@ -5,7 +5,7 @@ import math
 
 import numpy as np
 
-from railcosim.dem import CoupledDem
+from railcosim.dem import CoupledDem, hertz_mindlin_contacts
 
 GRAVITY = 9.81
 
@@ -96,14 +96,7 @@ flaps = [RotationEngine(ids=flap_left, rotationAxis=(0, 1, 0), angularVelocity=0
 # 3. Engines: Hertz-Mindlin with the restitution's viscous damping (Thornton 2013), the flaps, the coupling engine
 #    after the contact loop, the integrator without numerical damping.
 coupling = dem.coupling_engine(material=O.materials[steel], restitution=p["restitution"])
-contact_loop = [
-    ForceResetter(),
-    InsertionSortCollider([Bo1_Sphere_Aabb(), Bo1_Facet_Aabb()]),
-    InteractionLoop([Ig2_Sphere_Sphere_ScGeom(), Ig2_Facet_Sphere_ScGeom()],
-                    [Ip2_FrictMat_FrictMat_MindlinPhys(en=MatchMaker(algo="val", val=p["restitution"]),
-                                                       es=MatchMaker(algo="val", val=p["restitution"]))],
-                    [Law2_ScGeom_MindlinPhys_Mindlin()]),
-]
+contact_loop = hertz_mindlin_contacts(p["restitution"])
 integrator = NewtonIntegrator(damping=0.0, gravity=(0, 0, -GRAVITY))
 O.dt = dem.time_step()
 

@@ -155,6 +155,20 @@ def restore_engine_states(engines, states):
             engine.restoreRestartState(private)
 
 
+def hertz_mindlin_contacts(restitution, walls=False):
+    """YADE's engines up to the contact loop for spheres among themselves and on facets (and on walls, with `walls`):
+    Hertz-Mindlin contacts damped by the restitution coefficient (Thornton 2013). A case appends its coupling engine
+    and integrator."""
+    from yade.wrapper import (Bo1_Facet_Aabb, Bo1_Sphere_Aabb, Bo1_Wall_Aabb, ForceResetter, Ig2_Facet_Sphere_ScGeom,
+                              Ig2_Sphere_Sphere_ScGeom, Ig2_Wall_Sphere_ScGeom, InsertionSortCollider, InteractionLoop,
+                              Ip2_FrictMat_FrictMat_MindlinPhys, Law2_ScGeom_MindlinPhys_Mindlin, MatchMaker)
+    bounds = [Bo1_Sphere_Aabb(), Bo1_Facet_Aabb()] + ([Bo1_Wall_Aabb()] if walls else [])
+    geometries = [Ig2_Sphere_Sphere_ScGeom(), Ig2_Facet_Sphere_ScGeom()] + ([Ig2_Wall_Sphere_ScGeom()] if walls else [])
+    damping = dict(en=MatchMaker(algo="val", val=restitution), es=MatchMaker(algo="val", val=restitution))
+    return [ForceResetter(), InsertionSortCollider(bounds),
+            InteractionLoop(geometries, [Ip2_FrictMat_FrictMat_MindlinPhys(**damping)], [Law2_ScGeom_MindlinPhys_Mindlin()])]
+
+
 def participant_arguments(argv=None):
     """(parameters, endpoint, results folder) from the command line `railcosim run` gives dem.py."""
     argv = sys.argv if argv is None else argv

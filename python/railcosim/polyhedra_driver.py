@@ -85,7 +85,9 @@ def _pointer(array):
 
 
 class PolyhedraBed:
-    """One polyhedra system driven without YADE (see the module's docstring)."""
+    """One polyhedra system driven without YADE (see the module's docstring). The arguments are PolyhedraSystem's
+    Parameters: max_neighbours counts a stone's partners plus the large bodies in its reach, large_body_ratio the
+    multiple of the median bounding radius above which a body stays out of the neighbour grid (<= 0: none)."""
 
     def __init__(self, time_step, stone_material, gravity=(0.0, 0.0, -9.81), max_neighbours=24, max_wall_neighbours=8,
                  rebuild_interval=10, neighbour_skin=-1.0, adaptive_rebuild=True, large_body_ratio=2.5,

@@ -228,6 +228,38 @@ def cantilever_vibration(args):
 
 
 # ------------------------------------------------------------------------------------------------
+def schemes_reproduce_direct(results, direct, static, windows):
+    """The three schemes' coupled runs (results[scheme] = (summary, monitor)) against the direct run of the same lumped
+    load. Same load path (interface node forces -> vertex DOFs) and arithmetic, so they differ only by the summation
+    order of the lumped forces, i.e. round-off (1e-9 of the largest deflection): just-in-time equals the direct run;
+    predictive steps first with the previous window's forces (none in the first), so its state at t_n+1 is the direct
+    run's at t_n; implicit solves every window twice (a decoy load, then the real one from the saved start state) and
+    records only the accepted passes, so it equals the direct run again. Damped, the just-in-time run settles on the
+    static solution of the same load: 1e-3 is far below any wrong scaling or placement of the load and above what the
+    caller's run leaves of the transient."""
+    scale = max(abs(u) for u in direct["uz"])
+    summary, coupled = results["justInTime"]
+    expect(summary["steps"] == windows, "just-in-time: one FEM step per DEM window (%d)" % summary["steps"])
+    mismatch = max(abs(a - b) for a, b in zip(coupled["uz"], direct["uz"])) / scale
+    expect(len(coupled["uz"]) == len(direct["uz"]) and mismatch <= 1e-9,
+           "just-in-time coupled run reproduces the direct run (max relative difference %.2e)" % mismatch)
+    _, predictive = results["predictive"]
+    shifted = max(abs(predictive["uz"][n + 1] - direct["uz"][n]) for n in range(len(direct["uz"]) - 1)) / scale
+    expect(shifted <= 1e-9, "predictive coupled run is the direct run one window late (max relative difference %.2e)"
+           % shifted)
+    implicit_summary, implicit = results["implicit"]
+    expect(implicit_summary["steps"] == windows and implicit_summary["solves"] == 2 * windows,
+           "implicit: %d accepted steps from %d solves (expected %d and %d)"
+           % (implicit_summary["steps"], implicit_summary["solves"], windows, 2 * windows))
+    mismatch = max(abs(a - b) for a, b in zip(implicit["uz"], direct["uz"])) / scale
+    expect(len(implicit["uz"]) == len(direct["uz"]) and mismatch <= 1e-9,
+           "implicit coupled run with repeated windows reproduces the direct run (max relative difference %.2e)" % mismatch)
+    reference = static["finalMonitorDisplacement"][2]
+    settled = abs(summary["averageMonitorDisplacement"][2] - reference) / abs(reference)
+    expect(settled <= 1e-3, "coupled run settles on the static deflection %.5e m (relative difference %.2e)"
+           % (reference, settled))
+
+
 def coupled_round_trip(args):
     if not args.dem:
         sys.exit("coupled_round_trip needs --dem (the railcosim_test_pressure_dem executable)")
@@ -257,42 +289,12 @@ def coupled_round_trip(args):
         print("  " + "\n  ".join(line for line in output.splitlines() if "railcosim_test_pressure_dem" in line))
         results[scheme] = (summary, read_monitor(args, name))
 
-    scale = max(abs(u) for u in direct["uz"])
     summary, coupled = results["justInTime"]
-    expect(summary["steps"] == windows, "just-in-time: the FEM ran one step per DEM window (%d)" % summary["steps"])
     expect(summary["exchanges"] >= 2 * windows, "bridge statistics count %d exchanges" % summary["exchanges"])
-    # Same load path (interface node forces -> vertex DOFs) and the same arithmetic: the coupled and
-    # direct runs differ only by the summation order of the lumped forces, i.e. round-off.
-    mismatch = max(abs(a - b) for a, b in zip(coupled["uz"], direct["uz"])) / scale
-    expect(len(coupled["uz"]) == len(direct["uz"]) and mismatch <= 1e-9,
-           "just-in-time coupled run reproduces the direct run (max relative difference %.2e)" % mismatch)
     force_error = abs(coupled["forceZ"][-1] - direct["forceZ"][-1]) / abs(direct["forceZ"][-1])
     expect(force_error <= 1e-12, "received total force equals p * area (relative difference %.2e)" % force_error)
-
-    # Predictive: the FEM steps first with the previous window's forces (none in the first window),
-    # so its state at t_n+1 is the direct run's state at t_n.
-    _, predictive = results["predictive"]
-    shifted = max(abs(predictive["uz"][n + 1] - direct["uz"][n]) for n in range(len(direct["uz"]) - 1)) / scale
-    expect(shifted <= 1e-9, "predictive coupled run is the direct run one window late (max relative difference %.2e)"
-           % shifted)
-
-    # Implicit: every window is solved twice (a decoy load, then the real one from the saved start state);
-    # only the accepted passes are recorded, so the run is again the direct run up to round-off.
-    implicit_summary, implicit = results["implicit"]
-    expect(implicit_summary["steps"] == windows and implicit_summary["solves"] == 2 * windows,
-           "implicit: %d accepted steps from %d solves (expected %d and %d)"
-           % (implicit_summary["steps"], implicit_summary["solves"], windows, 2 * windows))
-    mismatch = max(abs(a - b) for a, b in zip(implicit["uz"], direct["uz"])) / scale
-    expect(len(implicit["uz"]) == len(direct["uz"]) and mismatch <= 1e-9,
-           "implicit coupled run with repeated windows reproduces the direct run (max relative difference %.2e)" % mismatch)
-
-    # Damped, the coupled run settles on the static solution of the same lumped load.
-    reference = static["finalMonitorDisplacement"][2]
-    settled = abs(summary["averageMonitorDisplacement"][2] - reference) / abs(reference)
-    # 12 ms at damping ratio ~0.9 leaves e^(-0.9 * 3350 * 0.012) ~ 1e-16 of the initial transient;
-    # 1e-3 is far above that and far below any wrong scaling of the load.
-    expect(settled <= 1e-3, "coupled run settles on the static deflection %.5e m (relative difference %.2e)"
-           % (reference, settled))
+    # 12 ms at damping ratio ~0.9 leave e^(-0.9 * 3350 * 0.012) ~ 1e-16 of the initial transient.
+    schemes_reproduce_direct(results, direct, static, windows)
 
     # Without a DEM side the bridge's own error must reach the user and fail the run.
     code, output = run_solver(args, "beam_no_dem", common + [

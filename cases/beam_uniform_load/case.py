@@ -97,22 +97,17 @@ class BeamUniformLoad(Case):
                 results.interface_work_panel(series),
             ])
 
-        error_direct = abs(coupled - direct_deflection) / direct_deflection
-        error_same_load = abs(coupled - same_load_deflection) / same_load_deflection
+        # Ullrich 2022 reached 0.38 % (51 kg) and 0.85 % (72 kg); the case asks for 1 %. The smoke bed (2.5 spheres
+        # across the width) loads the end stations visibly less than a uniform pressure: its limit is larger.
+        errors, checks = results.bed_on_structure_checks(coupled, direct_deflection, same_load_deflection,
+                                                         interface_force, weight, p["deflection_tolerance"])
+        error_direct, error_same_load = errors["coupled_vs_direct_fem"], errors["coupled_vs_same_load_fem"]
+        force_error = errors["interface_force_vs_weight"]
         error_closed = abs(direct_deflection - closed) / closed
-        force_error = abs(interface_force - weight) / weight
         fluctuation = results.force_fluctuation(series["time"], series["interface_force"][:, 2], p["average_s"], weight)
-        checks = [
-            # Ullrich 2022 reached 0.38 % (51 kg) and 0.85 % (72 kg); the case asks for 1 %. The smoke bed (2.5 spheres
-            # across the width) loads the end stations visibly less than a uniform pressure: its limit is larger.
-            {"name": "coupled vs direct FEM deflection", "value": error_direct, "limit": p["deflection_tolerance"]},
-            # Same nodal forces, static: what remains is residual motion of the bed and beam over the final span.
-            {"name": "coupled vs static FEM under the coupled run's mean nodal forces", "value": error_same_load,
-             "limit": 0.01},
+        checks += [
             # P2 20x2x2 is 3 % below the closed form (mesh study in freefem_scripts/README.md); 5 % is the target.
             {"name": "direct FEM vs closed form", "value": error_closed, "limit": 0.05},
-            # At rest the beam carries the whole weight (frictionless walls); 1 % leaves room for residual motion.
-            {"name": "interface force vs particle weight", "value": force_error, "limit": 0.01},
         ]
         return {
             **results.participant_summary(dem, fem),

@@ -60,19 +60,12 @@ class MonoblockSleeper(Case):
              "ylabel": "force on the sleeper [N]", "lines": [(weight, "particle weight")]},
             results.interface_work_panel(series)])
 
-        error_direct = abs(coupled - direct_deflection) / direct_deflection
-        error_same_load = abs(coupled - same_load_deflection) / same_load_deflection
-        force_error = abs(interface_force - weight) / weight
+        # The structure loaded directly: the sleeper under the bed's weight as a uniform pressure. The goal is 1 %.
+        errors, checks = results.bed_on_structure_checks(coupled, direct_deflection, same_load_deflection,
+                                                         interface_force, weight, p["deflection_tolerance"])
+        error_direct, error_same_load = errors["coupled_vs_direct_fem"], errors["coupled_vs_same_load_fem"]
+        force_error = errors["interface_force_vs_weight"]
         fluctuation = results.force_fluctuation(series["time"], series["interface_force"][:, 2], p["average_s"], weight)
-        checks = [
-            # The structure loaded directly: the sleeper under the bed's weight as a uniform pressure. The goal is 1 %.
-            {"name": "coupled vs direct FEM deflection", "value": error_direct, "limit": p["deflection_tolerance"]},
-            # Same nodal forces, static: what remains is the residual motion of the bed and sleeper.
-            {"name": "coupled vs static FEM under the coupled run's mean nodal forces", "value": error_same_load,
-             "limit": 0.01},
-            # At rest the sleeper carries the whole weight (frictionless walls); 1 % leaves room for residual motion.
-            {"name": "interface force vs particle weight", "value": force_error, "limit": 0.01},
-        ]
         return {
             **results.participant_summary(dem, fem),
             "metrics": {"deflection_m": coupled, "direct_fem_deflection_m": direct_deflection,

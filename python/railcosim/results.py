@@ -32,6 +32,25 @@ def force_fluctuation(times, force, span, reference):
     return {"final": last, "previous": previous, "growth": last / previous if previous > 0 else None}
 
 
+def bed_on_structure_checks(coupled, direct, same_load, interface_force, weight, deflection_tolerance):
+    """The checks of a particle bed at rest on a coupled structure (beam, sleeper): the coupled deflection against
+    the direct FEM run under the bed's weight as a uniform pressure (the case's goal, `deflection_tolerance`) and
+    against a static FEM run under the coupled run's mean nodal forces (1 %: what remains is the residual motion of
+    bed and structure), and the interface force against the particles' weight (frictionless walls: the structure
+    carries all of it; 1 % leaves room for residual motion). Returns (relative errors by name, checks)."""
+    errors = {"coupled_vs_direct_fem": abs(coupled - direct) / direct,
+              "coupled_vs_same_load_fem": abs(coupled - same_load) / same_load,
+              "interface_force_vs_weight": abs(interface_force - weight) / weight}
+    checks = [
+        {"name": "coupled vs direct FEM deflection", "value": errors["coupled_vs_direct_fem"],
+         "limit": deflection_tolerance},
+        {"name": "coupled vs static FEM under the coupled run's mean nodal forces",
+         "value": errors["coupled_vs_same_load_fem"], "limit": 0.01},
+        {"name": "interface force vs particle weight", "value": errors["interface_force_vs_weight"], "limit": 0.01},
+    ]
+    return errors, checks
+
+
 def interface_energy_error(dem):
     """|W_DEM - W_FEM| / max(|W_DEM|, |W_FEM|): disagreement of the two sides' interface work."""
     a, b = dem["interface_work_dem_j"], dem["interface_work_fem_j"]

@@ -52,6 +52,16 @@ def children(pid):
     return found
 
 
+def kill_groups(pids):
+    """SIGKILL to each process group; one that ended between the listing and the kill (e.g. a solver that saw its
+    peer die) is already what the kill aims at."""
+    for pid in pids:
+        try:
+            os.killpg(pid, signal.SIGKILL)
+        except ProcessLookupError:
+            pass
+
+
 def interrupt(railcosim, case, out, every, options):
     """Runs with checkpoints and SIGKILLs both solvers' process groups once a checkpoint is complete; returns the
     interrupted run's results folder and the checkpoint that had landed."""
@@ -68,8 +78,7 @@ def interrupt(railcosim, case, out, every, options):
         raise SystemExit(f"FAIL: no checkpoint was complete within {CHECKPOINT_WAIT_S:.0f} s "
                          f"(runner exit {runner.poll()})")
     solvers = children(runner.pid)
-    for pid in solvers:
-        os.killpg(pid, signal.SIGKILL)
+    kill_groups(solvers)
     print(f"  SIGKILL to the process groups of {solvers} after {os.path.dirname(landed[0])} landed", flush=True)
     code = runner.wait(timeout=60)
     print(f"  runner exit {code}", flush=True)

@@ -10,7 +10,6 @@ import hashlib
 import json
 import os
 import shutil
-import signal
 import subprocess
 import sys
 import tempfile
@@ -22,7 +21,7 @@ ROOT = os.path.dirname(os.path.dirname(HERE))
 RUNNER = os.path.join(ROOT, "tools", "run_case.py")
 CASE = os.path.join(HERE, "dummy_case")
 sys.path.insert(0, HERE)
-from restart_case import COMPLETE, children  # noqa: E402  (the solvers of a runner; a complete checkpoint folder)
+from restart_case import COMPLETE, children, kill_groups  # noqa: E402  (a runner's solvers; a complete checkpoint folder)
 # Waits for what takes well under a second on an idle machine, on a loaded 2-core one.
 SLOW_S = 30.0
 
@@ -60,8 +59,7 @@ def run_and_kill(out, *arguments):
     if not landed:
         runner.kill()
         raise AssertionError(f"no checkpoint was complete within {SLOW_S:.0f} s (runner exit {runner.poll()})")
-    for pid in children(runner.pid):
-        os.killpg(pid, signal.SIGKILL)
+    kill_groups(children(runner.pid))
     if runner.wait(timeout=SLOW_S) == 0:
         raise AssertionError("the run finished before its solvers could be killed; slow them down (compute_ms)")
     return os.path.basename(landed[0])

@@ -1,16 +1,22 @@
 // Throughput benchmark of the polyhedra DEM: a packed bed of 20-vertex stones, GPU or CPU reference.
 //
-// Usage: polyhedra_bench [--n N]... [--steps S] [--prepare P] [--backend cpu|cuda|auto] [--json FILE]
+// Usage: polyhedra_bench [--n N]... [--steps S] [--prepare P] [--bed packing|settled] [--pressure PA]
+//                        [--backend cpu|cuda|auto] [--json FILE]
 //   Builds a shallow bed (8 layers) of about N dodecahedral stones (4 templates, random orientations),
-//   packs it onto the floor in P coarse steps, then times S production steps and prints one
-//   JSON record per N (also written to FILE as a JSON list), with the cost of a state snapshot (saveSnapshot,
-//   restoreSnapshot: the rollback of an implicit coupling window) and of writing the state to memory.
+//   then times S production steps and prints one JSON record per N (also written to FILE as a JSON list),
+//   with the cost of a state snapshot (saveSnapshot, restoreSnapshot: the rollback of an implicit coupling
+//   window) and of writing the state to memory. Beds:
+//   packing  the lattice collapses onto the floor in P coarse steps: the top layers are still falling;
+//   settled  compacted ballast under a sleeper-like load: deposited without friction (denser, as ballast is
+//            compacted), then frictional stones under a lid pressed to PA (default 150 kPa) and held until the
+//            bed is at rest; the timed steps run under the held lid.
 #include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
 #include <fstream>
+#include <memory>
 #include <sstream>
 #include <string>
 #include <omp.h>
@@ -31,6 +37,8 @@ struct Options {
   std::vector<long> sizes;
   int steps = 200;
   int prepare = 3000;
+  bool settled = false;
+  double pressure = 150e3; // Pa: 132 kN on a 2.5 x 0.3 m sleeper base is 176 kPa; the bed below carries a little less
   Backend backend = Backend::Automatic;
   std::string json;
 };
@@ -52,6 +60,15 @@ Options parse(int argc, char** argv) {
       o.steps = std::atoi(next().c_str());
     else if (a == "--prepare")
       o.prepare = std::atoi(next().c_str());
+    else if (a == "--bed") {
+      const std::string b = next();
+      if (b != "packing" && b != "settled") {
+        std::fprintf(stderr, "--bed: packing or settled, not %s\n", b.c_str());
+        std::exit(2);
+      }
+      o.settled = b == "settled";
+    } else if (a == "--pressure")
+      o.pressure = std::atof(next().c_str());
     else if (a == "--json")
       o.json = next();
     else if (a == "--backend") {
@@ -66,6 +83,204 @@ Options parse(int argc, char** argv) {
   return o;
 }
 
+// The benchmark's stones and contact parameters; `friction` replaces μ of stones and walls.
+Parameters benchParameters(Backend backend, double friction, double young = 1e9) {
+  Parameters p;
+  p.timeStep = 1e-5; // Hertz period of a 0.17 kg stone at E = 1e9 Pa is ~2e-3 s: ≥ 200 steps per contact
+  p.stone = Material{young, 0.25, 0.3, friction};
+  p.wall = p.stone;
+  p.neighbourSkin = 0.003; // packing at Δt = 5e-5 s and ≤ 1.5 m/s moves stones ≤ 7.5e-4 m per 10-step interval
+  p.backend = backend;
+  return p;
+}
+
+constexpr int layers = 8;
+constexpr double spacing = 0.066; // > largest bounding diameter (0.0638 m): no initial overlaps
+constexpr double packingTimeStep = 5e-5; // ω Δt ≈ 0.15 for these contacts: stable, if not accurate
+constexpr unsigned bedSeed = 2026u;
+// Ballast's E (the sleeper case's stones) in the loaded bed: at 1e9 Pa the strongest force chains under the lid
+// pressed dilated spheres of 3 mm through to the cores (core-overlap fallbacks, then stones thrown out of the box);
+// the overlaps shrink by 10^(2/3) = 4.6 at 1e10 Pa, and the Hertz period by 10^0.4 = 2.5 (80 steps per contact
+// period at Δt = 1e-5 s).
+constexpr double settledYoung = 1e10;
+
+int latticeSide(long requested) {
+  return static_cast<int>(std::ceil(std::sqrt(static_cast<double>(requested) / layers)));
+}
+
+// The four stone templates and the lattice of about `requested` stones (same draw for the same size).
+void addBed(PolyhedraSystem& system, long requested, bool withBox) {
+  const std::vector<int> shapes = {system.addShape(dodecahedronStone(0.030, 0.025, 0.020, 0.003, 2600)),
+                                   system.addShape(dodecahedronStone(0.026, 0.028, 0.022, 0.003, 2600)),
+                                   system.addShape(dodecahedronStone(0.028, 0.022, 0.024, 0.003, 2600)),
+                                   system.addShape(dodecahedronStone(0.024, 0.027, 0.026, 0.003, 2600))};
+  const int side = latticeSide(requested);
+  addLatticeBed(system, shapes, side, side, layers, spacing, 0.0005, bedSeed, withBox);
+}
+
+double maxSpeedOf(const PolyhedraSystem& system) {
+  double maxSpeed = 0.0;
+  const std::vector<double> v = system.velocities();
+  for (std::size_t k = 0; k + 2 < v.size(); k += 3)
+    maxSpeed = std::max(maxSpeed, std::sqrt(v[k] * v[k] + v[k + 1] * v[k + 1] + v[k + 2] * v[k + 2]));
+  return maxSpeed;
+}
+
+struct Bed {
+  std::unique_ptr<PolyhedraSystem> system;
+  int prepareSteps = 0;
+  double prepareSeconds = 0.0;
+  double lidPressure = 0.0;    // Pa, mean over the timed steps (settled bed)
+  double coordination = 0.0;   // 2 × stone–stone contacts / stones after the timed steps
+  double wallContacts = 0.0;   // stone–wall contacts per stone
+  double restingSpeed = 0.0;   // largest stone speed before the timed steps [m/s]
+  double speed99 = 0.0;        // its 99th percentile [m/s]
+  double speedMedian = 0.0;    // its median [m/s]
+  std::vector<int> lidTriangles;
+  double lidArea = 0.0;
+};
+
+double seconds(std::chrono::steady_clock::time_point t) {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - t).count();
+}
+
+// Today's bed: the lattice collapses onto the floor under 10 g in `prepare` coarse steps; the timed run then uses
+// the production Δt and gravity while the top layers are still falling.
+Bed packingBed(const Options& options, long requested) {
+  Bed bed;
+  const Parameters p = benchParameters(options.backend, 0.6);
+  bed.system = std::make_unique<PolyhedraSystem>(p);
+  PolyhedraSystem& system = *bed.system;
+  addBed(system, requested, true);
+  system.setTimeStep(packingTimeStep);
+  system.setGravity({0.0, 0.0, -98.1});
+  const auto start = std::chrono::steady_clock::now();
+  for (int done = 0; done < options.prepare; done += 500) system.step(std::min(500, options.prepare - done));
+  bed.prepareSteps = options.prepare;
+  bed.prepareSeconds = seconds(start);
+  system.setTimeStep(p.timeStep);
+  system.setGravity(p.gravity);
+  return bed;
+}
+
+double lidForce(const PolyhedraSystem& system, const std::vector<int>& lid) {
+  const std::vector<double> f = system.triangleForces(); // force of the stones on each triangle
+  double sum = 0.0;
+  for (int t : lid) sum += f[3 * t + 2];
+  return sum;
+}
+
+// The box of addLatticeBed (floor, four sides) and a lid of two triangles over the whole bed at height `lid`, facing
+// down; nodes 8–11 are the lid's.
+std::vector<double> boxWithLid(long requested, double lid) {
+  const int side = latticeSide(requested);
+  const double x = side * spacing, y = side * spacing, z = (layers + 1) * spacing;
+  return {0, 0, 0, x, 0, 0, x, y, 0, 0, y, 0, 0, 0, z, x, 0, z, x, y, z, 0, y, z,
+          0, 0, lid, x, 0, lid, x, y, lid, 0, y, lid};
+}
+const std::vector<std::int32_t> boxWithLidTriangles = {0, 1, 2, 0, 2, 3, 0, 4, 5, 0, 5, 1, 1, 5, 6, 1, 6, 2,
+                                                       2, 6, 7, 2, 7, 3, 3, 7, 4, 3, 4, 0, 8, 10, 9, 8, 11, 10};
+
+// Velocity servo of the lid (nodes 8–11 of `nodes`, moved here): it approaches at 0.5 m/s until it carries 2 % of
+// the target (0.5 mm per 100-step window at Δt = 1e-5 s: less than a contact's overlap at the target), then at up
+// to 0.05 m/s in proportion to the pressure error, until the pressure has stayed within 2 % for 20 windows (or
+// 60,000 steps). Returns the steps taken and leaves the lid still.
+int pressLid(PolyhedraSystem& system, std::vector<double>& nodes, Bed& bed, double target, double timeStep) {
+  const int window = 100;
+  double lidSpeed = -0.5;
+  int calm = 0, steps = 0;
+  std::vector<double> velocities(nodes.size(), 0.0);
+  while (calm < 20 && steps < 60000) {
+    for (int n = 8; n < 12; ++n) velocities[3 * n + 2] = lidSpeed;
+    system.setSurfaceKinematics(nodes, velocities);
+    system.step(window);
+    steps += window;
+    for (int n = 8; n < 12; ++n) nodes[3 * n + 2] += lidSpeed * window * timeStep;
+    const double pressure = lidForce(system, bed.lidTriangles) / bed.lidArea;
+    const double error = (target - pressure) / target;
+    lidSpeed = pressure < 0.02 * target ? -0.5 : -0.05 * std::clamp(error, -1.0, 1.0);
+    calm = std::abs(error) < 0.02 ? calm + 1 : 0;
+  }
+  std::fill(velocities.begin(), velocities.end(), 0.0);
+  system.setSurfaceKinematics(nodes, velocities);
+  return steps;
+}
+
+// Compacted ballast under a load. (1) Deposition without friction under 10 g in a box whose lid waits at the top,
+// for 20,000 steps of 5e-5 s or until the fastest stone is below 0.05 m/s; (2) still without friction, 1 g and the
+// production Δt, the lid pressed to `pressure` (frictionless grains pack as densely as tamping and compaction make
+// ballast: with μ = 0.6 during the pressing the 392-stone bed kept a coordination number of 3.5); (3) the same stones
+// with μ = 0.6 under the lid held still for 10,000 steps. Stones in voids (rattlers) keep moving slowly; the speed
+// percentiles are reported.
+Bed settledBed(const Options& options, long requested) {
+  Bed bed;
+  const auto start = std::chrono::steady_clock::now();
+  const int side = latticeSide(requested);
+  bed.lidTriangles = {10, 11};
+  bed.lidArea = side * spacing * side * spacing;
+  std::vector<double> nodes = boxWithLid(requested, (layers + 1) * spacing);
+  std::vector<double> positions, orientations;
+  {
+    // Falling 0.5 m under 10 g reaches ~10 m/s: 2.5 mm per 5 steps, inside half of a 6 mm skin.
+    Parameters depositing = benchParameters(options.backend, 0.0, settledYoung);
+    depositing.neighbourSkin = 0.006;
+    depositing.rebuildInterval = 5;
+    depositing.maxWallNeighbours = 12; // a stone in a corner under the lid: floor, two sides and lid, two each
+    PolyhedraSystem deposit(depositing);
+    addBed(deposit, requested, false);
+    deposit.setWalls(nodes, boxWithLidTriangles);
+    deposit.setTimeStep(packingTimeStep);
+    deposit.setGravity({0.0, 0.0, -98.1});
+    double speed = 1e9;
+    for (int chunk = 0; chunk < 20 && speed > 0.05; ++chunk) {
+      deposit.step(1000);
+      bed.prepareSteps += 1000;
+      if (chunk >= 3) speed = maxSpeedOf(deposit);
+    }
+    std::printf("  deposition (no friction, 10 g): %d steps, fastest stone %.3g m/s, %.1f s\n", bed.prepareSteps,
+                speed, seconds(start));
+    // Under load the coarse packing step let the bed stir at ~0.5 m/s and squeezed stones through the lid.
+    deposit.setTimeStep(1e-5);
+    deposit.setGravity({0.0, 0.0, -9.81});
+    std::vector<double> lidAtTop = nodes;
+    const std::vector<double> p0 = deposit.positions();
+    double top = 0.0;
+    for (std::size_t k = 2; k < p0.size(); k += 3) top = std::max(top, p0[k]);
+    for (int n = 8; n < 12; ++n) nodes[3 * n + 2] = top + 0.033; // largest bounding radius (0.0319 m) and a gap
+    deposit.setSurfaceKinematics(nodes, std::vector<double>(nodes.size(), 0.0));
+    const int pressSteps = pressLid(deposit, nodes, bed, options.pressure, 1e-5);
+    bed.prepareSteps += pressSteps;
+    std::printf("  lid pressed (no friction, 1 g): %d steps to %.1f kPa, lid at %.4f m, %.1f s\n", pressSteps,
+                lidForce(deposit, bed.lidTriangles) / bed.lidArea / 1e3, nodes[3 * 8 + 2], seconds(start));
+    positions = deposit.positions();
+    orientations = deposit.orientations();
+  }
+  Parameters p = benchParameters(options.backend, 0.6, settledYoung);
+  p.maxWallNeighbours = 12;
+  bed.system = std::make_unique<PolyhedraSystem>(p);
+  PolyhedraSystem& system = *bed.system;
+  addBed(system, requested, false); // the same stones in the same order; their state is replaced below
+  const std::vector<double> zeros(positions.size(), 0.0);
+  system.setState(positions, orientations, zeros, zeros);
+  system.setWalls(nodes, boxWithLidTriangles);
+  const int restSteps = 10000; // 0.1 s: many wave transits of the bed's depth
+  system.step(restSteps);
+  bed.prepareSteps += restSteps;
+  const std::vector<double> v = system.velocities();
+  std::vector<double> speeds;
+  for (std::size_t k = 0; k + 2 < v.size(); k += 3)
+    speeds.push_back(std::sqrt(v[k] * v[k] + v[k + 1] * v[k + 1] + v[k + 2] * v[k + 2]));
+  std::sort(speeds.begin(), speeds.end());
+  bed.restingSpeed = speeds.back();
+  bed.speed99 = speeds[speeds.size() * 99 / 100];
+  bed.speedMedian = speeds[speeds.size() / 2];
+  bed.prepareSeconds = seconds(start);
+  std::printf("  mu 0.6, lid held: %d steps, stone speeds median %.3g, 99th percentile %.3g, largest %.3g m/s, "
+              "lid %.1f kPa, %.1f s\n", restSteps, bed.speedMedian, bed.speed99, bed.restingSpeed,
+              lidForce(system, bed.lidTriangles) / bed.lidArea / 1e3, bed.prepareSeconds);
+  return bed;
+}
+
 } // namespace
 
 int main(int argc, char** argv) {
@@ -74,41 +289,23 @@ int main(int argc, char** argv) {
   std::printf("%-30s %10s %6s %8s %10s %14s %14s %10s %10s\n", "device", "stones", "steps", "wall_s", "ms/step",
               "p-steps/s", "contacts/s", "cont/stone", "bw_frac");
   for (const long requested : options.sizes) {
-    Parameters p;
-    p.timeStep = 1e-5; // Hertz period of a 0.17 kg stone at E = 1e9 Pa is ~2e-3 s: ≥ 200 steps per contact
-    p.stone = Material{1e9, 0.25, 0.3, 0.6};
-    p.wall = p.stone;
-    p.neighbourSkin = 0.003; // packing at Δt = 5e-5 s and ≤ 1.5 m/s moves stones ≤ 7.5e-4 m per 10-step interval
-    p.backend = options.backend;
-    PolyhedraSystem system(p);
-    std::vector<int> shapes = {system.addShape(dodecahedronStone(0.030, 0.025, 0.020, 0.003, 2600)),
-                               system.addShape(dodecahedronStone(0.026, 0.028, 0.022, 0.003, 2600)),
-                               system.addShape(dodecahedronStone(0.028, 0.022, 0.024, 0.003, 2600)),
-                               system.addShape(dodecahedronStone(0.024, 0.027, 0.026, 0.003, 2600))};
-    const int layers = 8;
-    const int side = static_cast<int>(std::ceil(std::sqrt(static_cast<double>(requested) / layers)));
-    const double spacing = 0.066; // > largest bounding diameter (0.0638 m): no initial overlaps
-    addLatticeBed(system, shapes, side, side, layers, spacing, 0.0005, 2026u, true);
-    // Packing phase: the lattice collapses onto the floor under 10 g with a coarse Δt = 5e-5 s (ω Δt ≈ 0.15
-    // for these contacts: stable, if not accurate) until the stones rest on each other; then the timed
-    // run uses the production Δt and gravity.
-    system.setTimeStep(5e-5);
-    system.setGravity({0.0, 0.0, -98.1});
-    const auto prepareStart = std::chrono::steady_clock::now();
-    for (int done = 0; done < options.prepare; done += 500) system.step(std::min(500, options.prepare - done));
-    const double prepareSeconds =
-        std::chrono::duration<double>(std::chrono::steady_clock::now() - prepareStart).count();
-    system.setTimeStep(p.timeStep);
-    system.setGravity(p.gravity);
+    Bed bed = options.settled ? settledBed(options, requested) : packingBed(options, requested);
+    PolyhedraSystem& system = *bed.system;
+    const Parameters p = benchParameters(options.backend, 0.6);
+    const double maxSpeedBefore = maxSpeedOf(system);
     system.step(20); // warm-up: CUDA graphs captured, caches filled
     const auto start = std::chrono::steady_clock::now();
     system.step(options.steps);
-    const double wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    const double wall = seconds(start);
     const StepStatistics stats = system.lastStatistics();
+    if (options.settled) {
+      bed.lidPressure = lidForce(system, bed.lidTriangles) / bed.lidArea;
+      long pairs = 0, walls = 0;
+      for (const ContactRecord& c : system.contacts()) (c.wall ? walls : pairs) += 1;
+      bed.coordination = 2.0 * pairs / static_cast<double>(system.stoneCount());
+      bed.wallContacts = walls / static_cast<double>(system.stoneCount());
+    }
     // Snapshot cost: the mean of 10 saves and of 10 restores, and one writeState into memory.
-    auto seconds = [](std::chrono::steady_clock::time_point t) {
-      return std::chrono::duration<double>(std::chrono::steady_clock::now() - t).count();
-    };
     auto t0 = std::chrono::steady_clock::now();
     for (int k = 0; k < 10; ++k) system.saveSnapshot();
     const double saveSeconds = seconds(t0) / 10;
@@ -119,11 +316,7 @@ int main(int argc, char** argv) {
     t0 = std::chrono::steady_clock::now();
     system.writeState(state);
     const double writeSeconds = seconds(t0);
-    double maxSpeed = 0.0; // how settled the bed is (it decides how many list rebuilds are needed)
-    const std::vector<double> velocities = system.velocities();
-    for (std::size_t k = 0; k + 2 < velocities.size(); k += 3)
-      maxSpeed = std::max(maxSpeed, std::sqrt(velocities[k] * velocities[k] + velocities[k + 1] * velocities[k + 1] +
-                                              velocities[k + 2] * velocities[k + 2]));
+    const double maxSpeed = maxSpeedOf(system); // how settled the bed is (it decides how many list rebuilds are needed)
     const double n = static_cast<double>(system.stoneCount());
     const double particleSteps = n * options.steps / wall;
     const double contactsPerStone = stats.meanActiveContacts / n;
@@ -147,7 +340,11 @@ int main(int argc, char** argv) {
            << ", \"core_overlap_fallbacks\": " << stats.coreOverlapFallbacks
            << ", \"dangerous_rebuilds\": " << stats.dangerousRebuilds
            << ", \"neighbour_rebuilds\": " << stats.neighbourRebuilds << ", \"max_speed_m_s\": " << maxSpeed
-           << ", \"prepare_steps\": " << options.prepare << ", \"prepare_wall_s\": " << prepareSeconds
+           << ", \"bed\": \"" << (options.settled ? "settled" : "packing") << "\", \"max_speed_before_m_s\": " << maxSpeedBefore
+           << ", \"coordination_number\": " << bed.coordination << ", \"wall_contacts_per_particle\": " << bed.wallContacts
+           << ", \"speed_before_median_m_s\": " << bed.speedMedian << ", \"speed_before_p99_m_s\": " << bed.speed99
+           << ", \"lid_pressure_Pa\": " << bed.lidPressure << ", \"target_pressure_Pa\": " << (options.settled ? options.pressure : 0.0)
+           << ", \"prepare_steps\": " << bed.prepareSteps << ", \"prepare_wall_s\": " << bed.prepareSeconds
            << ", \"time_step_s\": " << p.timeStep << ", \"snapshot_save_s\": " << saveSeconds
            << ", \"snapshot_restore_s\": " << restoreSeconds << ", \"write_state_s\": " << writeSeconds
            << ", \"state_bytes\": " << state.str().size() << "}";

@@ -6,7 +6,8 @@
 # Environment: NVCC (default /usr/local/cuda/bin/nvcc or nvcc on PATH), CUDA_ARCH (default sm_90),
 #   EXTRA_NVCC_FLAGS (e.g. -maxrregcount=128), BENCH_STEPS (200), BENCH_PREPARE (3000), SKIP_COMPARISON=1,
 #   BUILD_DIR (keeps the executables polyhedra_bench and polyhedra_gpu_comparison; default a temporary folder),
-#   BUILD_ONLY=1 (stop after the build), EIGEN_INCLUDE (default /usr/include/eigen3).
+#   BUILD_ONLY=1 (stop after the build), EIGEN_INCLUDE (default /usr/include/eigen3),
+#   BENCH_BED (packing, the default, or settled: see benchmarks/gpu/PolyhedraBench.cpp).
 set -euo pipefail
 out=${1:-polyhedra-device-out}
 shift || true
@@ -46,4 +47,4 @@ echo "== benchmark"
 args=()
 for n in "${sizes[@]}"; do args+=(--n "$n"); done
 "$build/polyhedra_bench" "${args[@]}" --steps "${BENCH_STEPS:-200}" --prepare "${BENCH_PREPARE:-3000}" --backend cuda \
-  --json "$out/gpu_polyhedra_gpu.json" 2>&1 | tee "$out/bench.txt"
+  --bed "${BENCH_BED:-packing}" --json "$out/gpu_polyhedra_gpu.json" 2>&1 | tee "$out/bench.txt"

@@ -9,6 +9,8 @@
 # the DEM process, default the cores), PYTHON (default python3). Writes OUTDIR/run (the results
 # folder: summary.json, timeseries.h5, plots, logs) and OUTDIR/device.txt. A bed preparation stopped by the time limit
 # resumes after its last finished stage when run again with the same cache (preparation.StageCheckpoints).
+# CAMPAIGN=FILE runs that campaign (tools/campaign.py, local pool of JOBS runs at a time, default 4) into
+# OUTDIR/campaign instead of one run; its [set] table chooses the standalone driver and the CUDA backend.
 set -euo pipefail
 out=${1:?usage: run_sleeper_device.sh OUTDIR [runner options ...]}
 shift
@@ -40,6 +42,12 @@ export RAILCOSIM_POLYHEDRA_DRIVER="$rt/librailcosim_polyhedra_driver.so"
 } | tee "$out/device.txt"
 start=$(date +%s)
 set +e
+if [ -n "${CAMPAIGN:-}" ]; then
+  RAILCOSIM_CAMPAIGN_DIRECT=1 ${PYTHON:-python3} "$root/tools/campaign.py" "$CAMPAIGN" --jobs "${JOBS:-4}" --out "$out/campaign" "$@"
+  code=$?
+  echo "campaign exit $code after $(( $(date +%s) - start )) s" | tee -a "$out/device.txt"
+  exit $code
+fi
 ${PYTHON:-python3} "$root/tools/run_case.py" "$root/cases/sleeper_on_ballast" --out "$out/run" --force \
   --set dem_driver=standalone --set polyhedra_backend=cuda --set "dem_threads=${THREADS:-$(nproc)}" "$@"
 code=$?

@@ -12,6 +12,7 @@ import shlex
 import shutil
 import signal
 import subprocess
+import sys
 import time
 import tomllib
 
@@ -160,8 +161,14 @@ def build_plan(spec):
 
 def run_command(plan, run, out):
     """The `railcosim run` command line of one run: the entry point, so that the launch environment is right
-    however the campaign was started (railcosim campaign, tools/stability_map.py, a Slurm task)."""
-    command = [os.path.join(ROOT, "railcosim"), "run", plan["case"], "--out", os.path.join(out, run["folder"])]
+    however the campaign was started (railcosim campaign, tools/stability_map.py, a Slurm task). With
+    RAILCOSIM_CAMPAIGN_DIRECT=1 the case runner itself, in the environment the campaign was given: a machine that
+    cannot build railcosim but was given its runtime (benchmarks/gpu/run_sleeper_device.sh)."""
+    if os.environ.get("RAILCOSIM_CAMPAIGN_DIRECT") == "1":
+        entry = [sys.executable, os.path.join(ROOT, "tools", "run_case.py")]
+    else:
+        entry = [os.path.join(ROOT, "railcosim"), "run"]
+    command = entry + [plan["case"], "--out", os.path.join(out, run["folder"])]
     if plan["smoke"]:
         command.append("--smoke")
     if plan["time_limit_s"] is not None:

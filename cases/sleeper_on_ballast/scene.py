@@ -239,13 +239,15 @@ def _column_profile(core, triangles, dilation, rotation, cell, margin):
     offsets u (wx), v (wy) of the grid, centred on the body origin."""
     world = core @ rotation.T
     a, b, c = world[triangles[:, 0]], world[triangles[:, 1]], world[triangles[:, 2]]
-    normals = np.cross(b - a, c - a)
+    e, f = b - a, c - a  # (b - a) x (c - a), written out: np.cross's axis handling dominated this function's time
+    normals = np.stack((e[:, 1] * f[:, 2] - e[:, 2] * f[:, 1], e[:, 2] * f[:, 0] - e[:, 0] * f[:, 2],
+                        e[:, 0] * f[:, 1] - e[:, 1] * f[:, 0]), axis=1)
     normals /= np.linalg.norm(normals, axis=1)[:, None]
     offsets = np.einsum("ij,ij->i", normals, a) + dilation + margin
     reach = np.max(np.abs(world[:, :2]), axis=0) + dilation + margin
     wx, wy = 2 * int(math.ceil(reach[0] / cell)) + 1, 2 * int(math.ceil(reach[1] / cell)) + 1
     u, v = (np.arange(wx) - (wx - 1) / 2.0) * cell, (np.arange(wy) - (wy - 1) / 2.0) * cell
-    x, y = np.meshgrid(u, v, indexing="ij")
+    x, y = u[:, None], v[None, :]
     # n_x x + n_y y + n_z z <= d for every face: bounds on z per column, upward faces bound it from above, downward
     # ones from below, vertical ones cut columns off (each group evaluated on its own faces only).
     nz = normals[:, 2]
@@ -254,8 +256,8 @@ def _column_profile(core, triangles, dilation, rotation, cell, margin):
         return offsets[faces][None, None, :] - normals[faces, 0] * x[..., None] - normals[faces, 1] * y[..., None]
 
     up, down, side = nz > 1e-12, nz < -1e-12, np.abs(nz) <= 1e-12
-    top = np.min(rest(up) / nz[up], axis=2) if up.any() else np.full(x.shape, np.inf)
-    bottom = np.max(rest(down) / nz[down], axis=2) if down.any() else np.full(x.shape, -np.inf)
+    top = np.min(rest(up) / nz[up], axis=2) if up.any() else np.full((wx, wy), np.inf)
+    bottom = np.max(rest(down) / nz[down], axis=2) if down.any() else np.full((wx, wy), -np.inf)
     outside = bottom > top
     if side.any():
         outside |= np.any(rest(side) < 0, axis=2)
@@ -291,16 +293,18 @@ def place_cloud(scene, stones, region, rng, gap_fraction=0.02, candidates=10, or
             bottom, upper, _, _ = _column_profile(core, library()[shape]["triangles"], r_d, rotation, cell,
                                                   0.5 * gap_fraction * size + 0.75 * cell)
             wx, wy = bottom.shape
+            # The candidates' corners, drawn as (ix, iy) pairs in turn (one call, the same stream as one draw each).
+            corners = rng.integers(0, np.array([max(1, nx - wx + 1), max(1, ny - wy + 1)] * candidates))
+            if wx > nx or wy > ny:
+                continue  # the stone is wider than the region
+            ix, iy = corners[0::2], corners[1::2]
             inside = ~np.isnan(bottom)
-            for _ in range(candidates):
-                ix = int(rng.integers(0, max(1, nx - wx + 1)))
-                iy = int(rng.integers(0, max(1, ny - wy + 1)))
-                window = heights[ix:ix + wx, iy:iy + wy]
-                if window.shape != bottom.shape:
-                    continue  # the stone is wider than the region
-                rest = float(np.max((window - bottom)[inside]))
-                if best is None or rest < best[0]:
-                    best = (rest, ix, iy, rotation, bottom, upper)
+            # Every candidate's window at once: (candidates, wx, wy); its rest height is the highest column contact.
+            windows = heights[ix[:, None, None] + np.arange(wx)[None, :, None], iy[:, None, None] + np.arange(wy)]
+            rests = np.max((windows - bottom)[:, inside], axis=1)
+            k = int(np.argmin(rests))  # the first of equal lowest, as a strict comparison in drawing order keeps
+            if best is None or rests[k] < best[0]:
+                best = (float(rests[k]), int(ix[k]), int(iy[k]), rotation, bottom, upper)
         if best is None:
             raise ValueError(f"place_cloud: a stone of size {size:.3f} m does not fit in the region {region}")
         centre_z, ix, iy, rotation, bottom, upper = best

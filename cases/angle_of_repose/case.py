@@ -90,7 +90,8 @@ class AngleOfRepose(Case):
         floor_error = abs(float(series["floor_force"][-1]) - weight) / weight
         hopper_fraction = float(series["hopper_mass"][-1]) / dem["ballast_mass_kg"]
         label = ("spheres, η_r = %g" % p["rolling_friction"] if p["particle_shape"] == "sphere" else
-                 f"{p['cluster_level']} clusters" + (f", γ_μ = {p['friction_exponent']:g}" if p["friction_exponent"] else ""))
+                 f"{p['cluster_level']} clusters" + (f", SDF γ = {p['friction_exponent']:g}"
+                                                if p["friction_model"] == "stress_dependent" else ""))
         plot_pile(os.path.join(out, "pile_profile.png"), f"Angle of repose, {label}", measured, reference)
         results.plot_history(os.path.join(out, "discharge.png"), title=f"Hopper discharge, {label}", panels=[
             {"x": series["time"], "y": series["hopper_mass"], "label": "ballast above the aperture",

@@ -23,13 +23,14 @@ rng = np.random.default_rng(p["seed"])
 #    frictionless (thesis §6.2.1). Spheres resist rolling with η_r between them; the floor's η_r is the thesis' wall
 #    value (§6.4: a stone lying with a face on a rigid wall cannot roll), the pair using the larger of the two.
 #    Clusters roll on their shape alone (no rolling friction); between members of different clusters the friction
-#    may depend on the contact stress (friction_exponent < 0, Table 6.5).
+#    may depend on the contact stress (friction_model = "stress_dependent", Table 6.5).
 common = dict(young=p["particle_young"], poisson=p["particle_poisson"], density=p["particle_density"],
               restitution=p["restitution"])
+sdf = shape == "cluster" and p["friction_model"] == "stress_dependent"
 ballast = O.materials.append(BallastMat(frictionAngle=math.atan(p["friction"]),
                                         rollingFriction=p["rolling_friction"] if shape == "sphere" else 0.0,
-                                        frictionExponent=p["friction_exponent"] if shape == "cluster" else 0.0,
-                                        maxContactStress=p["max_contact_stress"] if shape == "cluster" else 0.0,
+                                        frictionExponent=p["friction_exponent"] if sdf else 0.0,
+                                        maxContactStress=p["max_contact_stress"] if sdf else 0.0,
                                         label="ballast", **common))
 floor_mat = O.materials.append(BallastMat(frictionAngle=math.atan(p["floor_friction"]),
                                           rollingFriction=p["floor_rolling_friction"] if shape == "sphere" else 0.0,
@@ -116,7 +117,7 @@ O.engines = [
     NewtonIntegrator(damping=0.0, gravity=(0, 0, -GRAVITY)) if shape == "sphere" else
     QuaternionIntegrator(scheme="zhaoVanWachem", damping=0.0, gravity=(0, 0, -GRAVITY)),
 ]
-O.dt = p["dem_dt"]
+O.dt = p["dem_dt"] if shape == "sphere" else p["cluster_dt"]
 
 
 # 5. Discharge and rest: the run goes on in spans of rest_check_s until the hopper is empty and every particle moves
@@ -132,7 +133,9 @@ def record():
 
 
 def progress(last):
-    return (f"hopper {last['hopper_mass']:.1f} kg  max speed {last['max_speed']:.3f} m/s  "
+    fastest = max((O.bodies[i].state for i in particle_ids), key=lambda s: s.vel.norm())
+    return (f"hopper {last['hopper_mass']:.1f} kg  max speed {last['max_speed']:.3f} m/s "
+            f"(at {', '.join(f'{x:.3f}' for x in fastest.pos)} m, spin {fastest.angVel.norm():.1f} rad/s)  "
             f"floor {last['floor_force'] / (total_mass * GRAVITY):.3f} W")
 
 

@@ -116,7 +116,10 @@ O.engines = [
 ] + ([BoundedRollingFrictionEngine()] if shape == "sphere" else []) + [
     NewtonIntegrator(damping=0.0, gravity=(0, 0, -GRAVITY)) if shape == "sphere" else
     QuaternionIntegrator(scheme="zhaoVanWachem", damping=0.0, gravity=(0, 0, -GRAVITY)),
+    # The floor's impulse, summed every step: the mean reaction over a window (the samples of a contact force rattle).
+    PyRunner(iterPeriod=1, command="floor_impulse[0] -= O.forces.f(floor)[2] * O.dt"),
 ]
+floor_impulse = [0.0]
 O.dt = p["dem_dt"] if shape == "sphere" else p["cluster_dt"]
 
 
@@ -126,10 +129,15 @@ def in_hopper_mass():
     return sum(O.bodies[i].state.mass for i in particle_ids if O.bodies[i].state.pos[2] > z0)
 
 
+def potential_energy():
+    return GRAVITY * sum(O.bodies[i].state.mass * O.bodies[i].state.pos[2] for i in particle_ids)
+
+
 def record():
     speeds = [O.bodies[i].state.vel.norm() for i in particle_ids]
-    return {"kinetic_energy": utils.kineticEnergy(), "hopper_mass": in_hopper_mass(), "max_speed": max(speeds),
-            "floor_force": -O.forces.f(floor)[2]}
+    return {"kinetic_energy": utils.kineticEnergy(), "potential_energy": potential_energy(),
+            "hopper_mass": in_hopper_mass(), "max_speed": max(speeds), "floor_force": -O.forces.f(floor)[2],
+            "floor_impulse": floor_impulse[0]}
 
 
 def progress(last):
@@ -139,6 +147,7 @@ def progress(last):
             f"floor {last['floor_force'] / (total_mass * GRAVITY):.3f} W")
 
 
+initial_energy = potential_energy()  # at rest on the lattice, no contact: kinetic and elastic energy are 0
 while O.time < p["duration_s"] - 0.5 * O.dt:
     dem.run(min(p["rest_check_s"], p["duration_s"] - O.time), record, p["record_every_s"], progress)
     if dem.last["hopper_mass"] == 0.0 and dem.last["max_speed"] < p["rest_speed"]:
@@ -152,6 +161,7 @@ centres_now = np.array([tuple(O.bodies[i].state.pos) for i in particle_ids])
 masses = np.array([O.bodies[i].state.mass for i in particle_ids])
 dem.save(arrays={"spheres": spheres, "particle_centres": centres_now, "particle_masses": masses},
          particles=count, spheres=len(members), ballast_mass_kg=total_mass, simulated_s=O.time,
+         initial_energy_j=initial_energy,
          at_rest=bool(dem.last["hopper_mass"] == 0.0 and dem.last["max_speed"] < p["rest_speed"]),
          mean_diameter_m=float(2.0 * reaches.mean()) if shape == "sphere" else float(
              np.mean([s["sieveSize"] for s in stones])))

@@ -86,7 +86,7 @@ class AngleOfRepose(Case):
         angle, reference = measured["angle_deg"], p["reference_angle_deg"]
         weight = dem["ballast_mass_kg"] * GRAVITY
         # Oracles independent of the angle. (1) Once the hopper is empty the floor carries the whole weight (nothing
-        # else holds the ballast): its mean reaction over the last rest_check_s, from the impulse summed every step,
+        # else holds the ballast): its mean reaction over the run's last rest_check_s, from the impulse summed every step,
         # differs from the weight only by the ballast's change of vertical momentum (a few stones still rolling).
         # (2) All of the ballast has left the hopper. (3) The contacts only dissipate (e = 0 dashpots, friction,
         # rolling friction) and the ballast starts at rest without contacts, so kinetic + potential energy never

@@ -130,7 +130,8 @@ class AngleOfRepose(Case):
         if p["particle_shape"] == "sphere":
             # Spheres stop on their rolling friction. Clusters have none (T2): a coarse stone rolls on its round
             # members across the bare floor for seconds (README), so a cluster run ends at duration_s.
-            checks.append({"name": "run ended at rest (0 = yes)", "value": 0.0 if dem["at_rest"] else 1.0, "limit": 0.0})
+            checks.append({"name": "run ended at rest (0 = yes)", "value": 0.0 if dem["at_rest"] else 1.0,
+                           "limit": 0.0})
         return {
             "metrics": {"angle_of_repose_deg": angle, "angle_spread_deg": float(np.std(measured["sector_angles_deg"])),
                         "sector_angles_deg": measured["sector_angles_deg"], "pile_height_m": measured["height_m"],

@@ -23,13 +23,14 @@ rng = np.random.default_rng(p["seed"])
 #    frictionless (thesis §6.2.1). Spheres resist rolling with η_r between them; the floor's η_r is the thesis' wall
 #    value (§6.4: a stone lying with a face on a rigid wall cannot roll), the pair using the larger of the two.
 #    Clusters roll on their shape alone (no rolling friction); between members of different clusters the friction
-#    may depend on the contact stress (friction_exponent < 0, Table 6.5).
+#    may depend on the contact stress (friction_model = "stress_dependent", Table 6.5).
 common = dict(young=p["particle_young"], poisson=p["particle_poisson"], density=p["particle_density"],
               restitution=p["restitution"])
+sdf = shape == "cluster" and p["friction_model"] == "stress_dependent"
 ballast = O.materials.append(BallastMat(frictionAngle=math.atan(p["friction"]),
                                         rollingFriction=p["rolling_friction"] if shape == "sphere" else 0.0,
-                                        frictionExponent=p["friction_exponent"] if shape == "cluster" else 0.0,
-                                        maxContactStress=p["max_contact_stress"] if shape == "cluster" else 0.0,
+                                        frictionExponent=p["friction_exponent"] if sdf else 0.0,
+                                        maxContactStress=p["max_contact_stress"] if sdf else 0.0,
                                         label="ballast", **common))
 floor_mat = O.materials.append(BallastMat(frictionAngle=math.atan(p["floor_friction"]),
                                           rollingFriction=p["floor_rolling_friction"] if shape == "sphere" else 0.0,
@@ -116,7 +117,7 @@ O.engines = [
     NewtonIntegrator(damping=0.0, gravity=(0, 0, -GRAVITY)) if shape == "sphere" else
     QuaternionIntegrator(scheme="zhaoVanWachem", damping=0.0, gravity=(0, 0, -GRAVITY)),
 ]
-O.dt = p["dem_dt"]
+O.dt = p["dem_dt"] if shape == "sphere" else p["cluster_dt"]
 
 
 # 5. Discharge and rest: the run goes on in spans of rest_check_s until the hopper is empty and every particle moves
@@ -125,22 +126,35 @@ def in_hopper_mass():
     return sum(O.bodies[i].state.mass for i in particle_ids if O.bodies[i].state.pos[2] > z0)
 
 
+def potential_energy():
+    return GRAVITY * sum(O.bodies[i].state.mass * O.bodies[i].state.pos[2] for i in particle_ids)
+
+
 def record():
     speeds = [O.bodies[i].state.vel.norm() for i in particle_ids]
-    return {"kinetic_energy": utils.kineticEnergy(), "hopper_mass": in_hopper_mass(), "max_speed": max(speeds),
-            "floor_force": -O.forces.f(floor)[2]}
+    return {"kinetic_energy": utils.kineticEnergy(), "potential_energy": potential_energy(),
+            "hopper_mass": in_hopper_mass(), "max_speed": max(speeds), "floor_force": -O.forces.f(floor)[2],
+            "floor_impulse": floor_impulse[0]}
 
 
 def progress(last):
-    return (f"hopper {last['hopper_mass']:.1f} kg  max speed {last['max_speed']:.3f} m/s  "
+    fastest = max((O.bodies[i].state for i in particle_ids), key=lambda s: s.vel.norm())
+    return (f"hopper {last['hopper_mass']:.1f} kg  max speed {last['max_speed']:.3f} m/s "
+            f"(at {', '.join(f'{x:.3f}' for x in fastest.pos)} m, spin {fastest.angVel.norm():.1f} rad/s)  "
             f"floor {last['floor_force'] / (total_mass * GRAVITY):.3f} W")
 
 
+initial_energy = potential_energy()  # at rest on the lattice, no contact: kinetic and elastic energy are 0
+floor_impulse = [0.0]
 while O.time < p["duration_s"] - 0.5 * O.dt:
     dem.run(min(p["rest_check_s"], p["duration_s"] - O.time), record, p["record_every_s"], progress)
     if dem.last["hopper_mass"] == 0.0 and dem.last["max_speed"] < p["rest_speed"]:
         print(f"at rest at t = {O.time:.3f} s", flush=True)
         break
+# One more rest_check_s with the floor's impulse summed every step, for its mean reaction over that window (samples of
+# a contact force rattle). Only then: a Python call per step costs several times a small scene's step.
+O.engines = O.engines + [PyRunner(iterPeriod=1, command="floor_impulse[0] -= O.forces.f(floor)[2] * O.dt")]
+dem.run(p["rest_check_s"], record, p["record_every_s"], progress)
 
 # 6. The pile: every sphere (cluster members for clusters) with its radius, for the profile fit of the post-processing.
 members = [b for b in O.bodies if isinstance(b.shape, Sphere)]
@@ -149,6 +163,7 @@ centres_now = np.array([tuple(O.bodies[i].state.pos) for i in particle_ids])
 masses = np.array([O.bodies[i].state.mass for i in particle_ids])
 dem.save(arrays={"spheres": spheres, "particle_centres": centres_now, "particle_masses": masses},
          particles=count, spheres=len(members), ballast_mass_kg=total_mass, simulated_s=O.time,
+         initial_energy_j=initial_energy,
          at_rest=bool(dem.last["hopper_mass"] == 0.0 and dem.last["max_speed"] < p["rest_speed"]),
          mean_diameter_m=float(2.0 * reaches.mean()) if shape == "sphere" else float(
              np.mean([s["sieveSize"] for s in stones])))

@@ -16,7 +16,7 @@ import tomllib
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 SWEPT = ("rolling_friction", "particle_young", "dem_dt", "ballast_mass_kg", "particle_shape", "cluster_level",
-         "friction_exponent", "drop_height")
+         "friction_model", "cluster_dt", "drop_height")
 
 
 def main(results):

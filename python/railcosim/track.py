@@ -33,6 +33,11 @@ EN13450_SIEVES = (0.0224, 0.0315, 0.040, 0.050, 0.063)
 EN13450_PASSING = (0.0, 0.125, 0.475, 0.85, 1.0)
 CLOUD_SOLID_FRACTION = 0.3  # random placement jams near 0.38; a frictionless bed settles to about 0.6
 PACKING_DAMPING = 0.3  # YADE's non-viscous damping while the packing settles
+PLATE_SPEED = 0.3  # m/s, the plate's highest speed
+PLATE_PRESSURE = 4.7e3  # Pa: a sleeper with its rails (360 kg, Irazábal §7.2.2) on its base (2.52 m x 0.30 m)
+PACKING_PROCEDURE = 7  # part of the cache key: raised whenever _pack changes
+COMPACTION_HOLD_S = 0.1  # s the bed rests under the plate, and half of it after it is removed
+REST_S = 0.05  # s the bed rests with the test's materials before it is kept
 
 
 def rail_rectangle(area=UIC60_AREA, second_moment=UIC60_SECOND_MOMENT):
@@ -116,8 +121,10 @@ class TrackBed:
     """The YADE side of the track scene: materials, the base wall and the mirror walls, the ballast bed packed once
     (cached by bedcache), and the contact engines. Construct inside YADE."""
 
-    PACKING_KEYS = ("sleepers", "sleeper_spacing", "sleeper_length", "ballast_depth", "shoulder_width", "size_scale",
-                    "packing_young", "ballast_poisson", "ballast_density", "packing_settle_s", "dem_dt_safety", "seed")
+    PACKING_KEYS = ("sleepers", "sleeper_spacing", "sleeper_length", "sleeper_width", "ballast_depth", "shoulder_width",
+                    "size_scale", "packing_young", "ballast_young", "ballast_poisson", "ballast_density",
+                    "ballast_friction", "rolling_friction", "wall_rolling_friction", "base_young", "base_poisson",
+                    "base_friction", "mirror_young", "restitution", "packing_settle_s", "dem_dt_safety", "seed")
 
     def __init__(self, p, out):
         from yade import O, utils
@@ -141,7 +148,8 @@ class TrackBed:
 
         # 2. The bed, packed without friction (Irazábal §6.4.2) and cut at the sleepers' base, from the cache; its
         #    highest grain under the sleepers at z = 0 so that the track rests on it from the start.
-        cache = bedcache.path("track", {k: p[k] for k in self.PACKING_KEYS}, fallback=os.path.join(out, "cache"))
+        cache = bedcache.path("track", {"procedure": PACKING_PROCEDURE, **{k: p[k] for k in self.PACKING_KEYS}},
+                              fallback=os.path.join(out, "cache"))
         with bedcache.exclusive(cache) as found:
             if not found:
                 bed, base_z = self._pack()
@@ -151,14 +159,19 @@ class TrackBed:
         with np.load(cache) as saved:
             bed, self.base_z = saved["bed"], float(saved["base_z"])
         self.cache = cache
-        self.base_wall = O.bodies.append(utils.wall(position=self.base_z, axis=2, sense=1,
-                                                    material=O.materials[self.base]))
+        self._scene(bed, self.base_z)
+        self.bed = bed
+
+    def _scene(self, bed, base_z):
+        """The bed's bodies: the base wall at base_z, the mirror walls, the grains of `bed` (x, y, z, r) of the
+        ballast's material."""
+        from yade import O, utils
+        self.base_wall = O.bodies.append(utils.wall(position=base_z, axis=2, sense=1, material=O.materials[self.base]))
         self.mirrors = [O.bodies.append(utils.wall(position=pos, axis=axis, sense=sense,
                                                    material=O.materials[self.mirror]))
                         for axis, pos, sense in ((0, 0.0, 1), (0, self.end_x, -1), (1, 0.0, 1), (1, self.width, -1))]
         self.spheres = [O.bodies.append(utils.sphere(row[:3], row[3], material=O.materials[self.ballast]))
                         for row in bed]
-        self.bed = bed
 
     @property
     def sleeper_material(self):
@@ -189,8 +202,9 @@ class TrackBed:
 
     def _pack(self):
         """Rains a loose cloud of the grading into the box over the base, lets it settle without friction under gravity
-        for packing_settle_s, keeps the grains wholly under z = 0 and lifts them (and the base) so that the highest one
-        under a sleeper touches z = 0. Returns the bed, rows (x, y, z, r), and the base's height z [m]."""
+        for packing_settle_s, cuts it at ballast_depth, levels it under a plate, lets it rest with the test's materials
+        and lifts it (and the base) so that the highest grain under a sleeper touches z = 0. Returns the bed, rows
+        (x, y, z, r), and the base's height z [m]."""
         from yade import O, pack, utils
         from yade.wrapper import NewtonIntegrator
         p = self.p
@@ -209,8 +223,40 @@ class TrackBed:
         O.engines = self.engines()[:-1] + [NewtonIntegrator(damping=PACKING_DAMPING, gravity=(0, 0, -GRAVITY))]
         O.dt = p["dem_dt_safety"] * utils.PWaveTimeStep()
         O.run(max(1, int(p["packing_settle_s"] / O.dt)), True)
+        # The auxiliary surface (Irazábal Table 6.6): the grains whose centres lie above the bed's depth removed, a
+        # frictionless plate laid on the rest under the pressure of a sleeper's weight on its base, so that the
+        # sleepers find a level bed with grains all over their bases rather than the few highest grains of a cut.
+        for i in ids:
+            if O.bodies[i].state.pos[2] > floor + self.depth - 0.5 * sizes[2]:  # tops near floor + depth
+                O.bodies.erase(i)
+        ids = [i for i in ids if O.bodies[i] is not None]
+        start = max(O.bodies[i].state.pos[2] + O.bodies[i].shape.radius for i in ids)
+        plate = O.bodies.append(utils.wall(position=start, axis=2, sense=-1, material=O.materials[self.mirror]))
+        body = O.bodies[plate]
+        target = PLATE_PRESSURE * self.end_x * self.width
+        chunk = 50
+        for _ in range(max(1, int(COMPACTION_HOLD_S / O.dt / chunk))):
+            # Lowered at up to PLATE_SPEED, slowing as the grains' force on it approaches the pressure's.
+            body.state.vel = (0, 0, -PLATE_SPEED * max(0.0, 1.0 - O.forces.f(plate)[2] / target))
+            O.run(chunk, True)
+        body.state.vel = (0, 0, 0)
+        level = body.state.pos[2]
+        O.bodies.erase(plate)
+        O.run(max(1, int(0.5 * COMPACTION_HOLD_S / O.dt)), True)
+        # The scene of the coupled run with the test's materials (friction, rolling friction, the ballast's stiffness,
+        # the soft base): the bed rests under gravity, so that the coupled run starts from a bed at rest under its own
+        # contact law.
         bed = np.array([[*O.bodies[i].state.pos, O.bodies[i].shape.radius] for i in ids])
-        bed = bed[bed[:, 2] + bed[:, 3] <= 0.0]
+        bed = bed[bed[:, 2] + bed[:, 3] <= level + 0.1 * bed[:, 3]]  # none left above the plate's level
+        O.bodies.clear()
+        O.interactions.clear()
+        self._scene(bed, floor)
+        O.engines = self.engines() + [NewtonIntegrator(damping=0.0, gravity=(0, 0, -GRAVITY))]  # BROF needs none
+        O.dt = p["dem_dt_safety"] * utils.PWaveTimeStep()
+        O.run(max(1, int(REST_S / O.dt)), True)
+        print(f"bed packed: {len(self.spheres)} grains, plate level {level:.4f} m, kinetic energy at rest "
+              f"{utils.kineticEnergy():.3g} J", flush=True)
+        bed = np.array([[*O.bodies[i].state.pos, O.bodies[i].shape.radius] for i in self.spheres])
         half_width = 0.5 * p["sleeper_width"]
         under = (np.abs(bed[:, 0] - p["sleeper_spacing"] * np.rint(bed[:, 0] / p["sleeper_spacing"])) < half_width) & \
                 (bed[:, 1] < 0.5 * p["sleeper_length"])

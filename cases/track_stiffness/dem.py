@@ -20,7 +20,7 @@ O.engines = bed.engines() + [coupling, NewtonIntegrator(damping=0.0, gravity=(0,
 O.dt = dem.time_step()
 dem.connect()  # receives the sleepers' bases, inserts their facets, sets O.dt = fem_dt / subcycles
 bed_mass = bed.mass
-print(f"{len(bed.spheres)} spheres, {bed_mass:.1f} kg, base at z = {bed.base_z:.4f} m (E {track.base_young(p):.3g} Pa); "
+print(f"{len(bed.spheres)} spheres, {bed_mass:.1f} kg, base at z = {bed.base_z:.4f} m ({p['subgrade']}); "
       f"bed {bed.cache}", flush=True)
 
 
@@ -30,8 +30,8 @@ def record():
                 nodal_forces=coupling.nodalForces)
 
 
-dem.run(record, progress=lambda last: f"sleepers Fz={-last['interface_force'][2]:.0f} N  base {last['base_force']:.0f} N"
-                                      f"  kinetic energy {last['kinetic_energy']:.3e} J")
+dem.run(record, progress=lambda last: f"interface Fz={last['interface_force'][2]:.0f} N  base wall "
+                                      f"{last['base_force']:.0f} N  kinetic energy {last['kinetic_energy']:.3e} J")
 # 5. What the post-processing reads (dem_info.json): the bed and the interface nodes' reference positions.
 dem.save(particles=len(bed.spheres), total_particle_mass_kg=bed_mass, base_z=bed.base_z, packed_bed=bed.cache,
          arrays={"node_positions": np.asarray([tuple(v) for v in coupling.nodePositions]),

@@ -24,6 +24,7 @@ import numpy as np
 from railcosim import bedcache
 
 FEM_SCRIPT = "examples/track.edp"
+BED_INFO = "bed.json"  # the preparation run's figures of the packed bed (base_z [m], spheres, cache file)
 GRAVITY = 9.81
 # UIC60 rail (EN 13674-1): cross-section area [m^2] and second moment about the horizontal axis [m^4].
 UIC60_AREA = 76.70e-4
@@ -59,8 +60,10 @@ def stations(p):
 
 
 def fem_arguments(p):
-    """track.edp's options for the track of parameters p (without the load's)."""
+    """track.edp's options for the track of parameters p (without the load's; with subgrade = "layers" the layers'
+    top, baseZ, is the packed bed's base: BED_INFO of the preparation run)."""
     width, height = rail_rectangle()
+    layers = p["subgrade"] == "layers"
     return {"geo": os.path.join(os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__)))),
                                 "freefem_scripts", "examples", "track.geo"),
             "sleepers": p["sleepers"], "spacing": p["sleeper_spacing"], "sleeperWidth": p["sleeper_width"],
@@ -69,7 +72,11 @@ def fem_arguments(p):
             "railWidth": width, "railHeight": height, "railY": 0.5 * p["rail_gauge"],
             "meshSize": p["mesh_size"], "railMeshSize": p["rail_mesh_size"], "sleeperE": p["sleeper_young"],
             "sleeperRho": p["sleeper_density"], "railE": p["rail_young"], "railRho": p["rail_density"],
-            "rayleighMass": p["rayleigh_mass"], "stations": ",".join(f"{x:.6g}" for x in stations(p))}
+            "rayleighMass": p["rayleigh_mass"], "stations": ",".join(f"{x:.6g}" for x in stations(p)),
+            "subballastThickness": p["subballast_thickness"] if layers else 0.0,
+            "formationThickness": p["formation_thickness"] if layers else 0.0,
+            "subballastE": p["subballast_young"], "formationE": p["formation_young"],
+            "bedWidth": 0.5 * p["sleeper_length"] + p["shoulder_width"], "layerMeshSize": p["layer_mesh_size"]}
 
 
 def grading(size_scale):
@@ -90,14 +97,18 @@ def base_young(p):
     return p["base_young"] * p["size_scale"] ** 1.5
 
 
-def seat_forces(nodal_forces, node_positions, p):
+def sleeper_nodes(node_positions, base_z):
+    """Which interface nodes (nodes, 3) lie on the sleepers' bases (the rest, with subgrade layers, on the layers' top
+    face at base_z)."""
+    return np.asarray(node_positions)[:, 2] > 0.5 * base_z
+
+
+def seat_forces(nodal_forces, node_positions, p, base_z):
     """Vertical force of the ballast on each sleeper [N], (windows, sleepers) from the interface's nodal forces
-    (windows, nodes, 3) and positions (nodes, 3 or windows, nodes, 3): nodes within half a spacing of a sleeper's
-    centre belong to it."""
-    x = np.asarray(node_positions)[..., 0]
-    if x.ndim == 2:
-        x = x[0]
-    owner = np.rint(x / p["sleeper_spacing"]).astype(int)
+    (windows, nodes, 3) and positions (nodes, 3): sleeper nodes within half a spacing of a sleeper's centre belong
+    to it."""
+    positions = np.asarray(node_positions)
+    owner = np.where(sleeper_nodes(positions, base_z), np.rint(positions[:, 0] / p["sleeper_spacing"]), -1).astype(int)
     fz = np.asarray(nodal_forces)[..., 2]
     return np.stack([fz[:, owner == k].sum(axis=1) for k in range(p["sleepers"])], axis=1)
 
@@ -148,8 +159,9 @@ class TrackBed:
 
         # 2. The bed, packed without friction (Irazábal §6.4.2) and cut at the sleepers' base, from the cache; its
         #    highest grain under the sleepers at z = 0 so that the track rests on it from the start.
-        cache = bedcache.path("track", {"procedure": PACKING_PROCEDURE, **{k: p[k] for k in self.PACKING_KEYS}},
-                              fallback=os.path.join(out, "cache"))
+        layers = {"subgrade": "layers"} if p["subgrade"] == "layers" else {}  # a concrete base while packing
+        key = {"procedure": PACKING_PROCEDURE, **{k: p[k] for k in self.PACKING_KEYS}, **layers}
+        cache = bedcache.path("track", key, fallback=os.path.join(out, "cache"))
         with bedcache.exclusive(cache) as found:
             if not found:
                 bed, base_z = self._pack()
@@ -162,11 +174,16 @@ class TrackBed:
         self._scene(bed, self.base_z)
         self.bed = bed
 
-    def _scene(self, bed, base_z):
-        """The bed's bodies: the base wall at base_z, the mirror walls, the grains of `bed` (x, y, z, r) of the
+    def _scene(self, bed, base_z, packing=False):
+        """The bed's bodies: the base wall at base_z (subgrade = "wall"; with "layers" only while packing, then of the
+        sleepers' concrete, as the coupled surface will be), the mirror walls, the grains of `bed` (x, y, z, r) of the
         ballast's material."""
         from yade import O, utils
-        self.base_wall = O.bodies.append(utils.wall(position=base_z, axis=2, sense=1, material=O.materials[self.base]))
+        self.base_wall = None
+        if self.p["subgrade"] == "wall" or packing:  # with FreeFEM layers the coupled surface is the base
+            self.base_wall = O.bodies.append(utils.wall(position=base_z, axis=2, sense=1,
+                                                        material=O.materials[self.sleeper if packing and self.p[
+                                                            "subgrade"] == "layers" else self.base]))
         self.mirrors = [O.bodies.append(utils.wall(position=pos, axis=axis, sense=sense,
                                                    material=O.materials[self.mirror]))
                         for axis, pos, sense in ((0, 0.0, 1), (0, self.end_x, -1), (1, 0.0, 1), (1, self.width, -1))]
@@ -196,9 +213,9 @@ class TrackBed:
                 BoundedRollingFrictionEngine()]
 
     def base_force(self):
-        """Vertical force of the bed on the base wall [N] (positive downwards) in the last step."""
+        """Vertical force of the bed on the base wall [N] (positive downwards) in the last step; 0 without a wall."""
         from yade import O
-        return -O.forces.f(self.base_wall)[2]
+        return 0.0 if self.base_wall is None else -O.forces.f(self.base_wall)[2]
 
     def _pack(self):
         """Rains a loose cloud of the grading into the box over the base, lets it settle without friction under gravity
@@ -250,7 +267,7 @@ class TrackBed:
         bed = bed[bed[:, 2] + bed[:, 3] <= level + 0.1 * bed[:, 3]]  # none left above the plate's level
         O.bodies.clear()
         O.interactions.clear()
-        self._scene(bed, floor)
+        self._scene(bed, floor, packing=True)
         O.engines = self.engines() + [NewtonIntegrator(damping=0.0, gravity=(0, 0, -GRAVITY))]  # BROF needs none
         O.dt = p["dem_dt_safety"] * utils.PWaveTimeStep()
         O.run(max(1, int(REST_S / O.dt)), True)

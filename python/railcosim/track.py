@@ -35,8 +35,8 @@ EN13450_PASSING = (0.0, 0.125, 0.475, 0.85, 1.0)
 CLOUD_SOLID_FRACTION = 0.3  # random placement jams near 0.38; a frictionless bed settles to about 0.6
 PACKING_DAMPING = 0.3  # YADE's non-viscous damping while the packing settles
 PLATE_SPEED = 0.3  # m/s, the plate's highest speed
-PLATE_PRESSURE = 4.7e3  # Pa: a sleeper with its rails (360 kg, Irazábal §7.2.2) on its base (2.52 m x 0.30 m)
-PACKING_PROCEDURE = 7  # part of the cache key: raised whenever _pack changes
+PLATE_OVERLAP = 5e-4  # m: grains may overlap the plate by this much (elastic contact) and still count as under it
+PACKING_PROCEDURE = 8  # part of the cache key: raised whenever _pack changes
 COMPACTION_HOLD_S = 0.1  # s the bed rests under the plate, and half of it after it is removed
 REST_S = 0.05  # s the bed rests with the test's materials before it is kept
 
@@ -135,7 +135,8 @@ class TrackBed:
     PACKING_KEYS = ("sleepers", "sleeper_spacing", "sleeper_length", "sleeper_width", "ballast_depth", "shoulder_width",
                     "size_scale", "packing_young", "ballast_young", "ballast_poisson", "ballast_density",
                     "ballast_friction", "rolling_friction", "wall_rolling_friction", "base_young", "base_poisson",
-                    "base_friction", "mirror_young", "restitution", "packing_settle_s", "dem_dt_safety", "seed")
+                    "base_friction", "mirror_young", "restitution", "packing_settle_s", "consolidation_pressure",
+                    "dem_dt_safety", "seed")
 
     def __init__(self, p, out):
         from yade import O, utils
@@ -241,8 +242,8 @@ class TrackBed:
         O.dt = p["dem_dt_safety"] * utils.PWaveTimeStep()
         O.run(max(1, int(p["packing_settle_s"] / O.dt)), True)
         # The auxiliary surface (Irazábal Table 6.6): the grains whose centres lie above the bed's depth removed, a
-        # frictionless plate laid on the rest under the pressure of a sleeper's weight on its base, so that the
-        # sleepers find a level bed with grains all over their bases rather than the few highest grains of a cut.
+        # frictionless plate pressed on the rest at consolidation_pressure, so that every sleeper finds a level bed
+        # with grains all over its base (not the few highest grains of a cut, which leave some sleepers hanging).
         for i in ids:
             if O.bodies[i].state.pos[2] > floor + self.depth - 0.5 * sizes[2]:  # tops near floor + depth
                 O.bodies.erase(i)
@@ -250,7 +251,7 @@ class TrackBed:
         start = max(O.bodies[i].state.pos[2] + O.bodies[i].shape.radius for i in ids)
         plate = O.bodies.append(utils.wall(position=start, axis=2, sense=-1, material=O.materials[self.mirror]))
         body = O.bodies[plate]
-        target = PLATE_PRESSURE * self.end_x * self.width
+        target = p["consolidation_pressure"] * self.end_x * self.width
         chunk = 50
         for _ in range(max(1, int(COMPACTION_HOLD_S / O.dt / chunk))):
             # Lowered at up to PLATE_SPEED, slowing as the grains' force on it approaches the pressure's.
@@ -264,7 +265,7 @@ class TrackBed:
         # the soft base): the bed rests under gravity, so that the coupled run starts from a bed at rest under its own
         # contact law.
         bed = np.array([[*O.bodies[i].state.pos, O.bodies[i].shape.radius] for i in ids])
-        bed = bed[bed[:, 2] + bed[:, 3] <= level + 0.1 * bed[:, 3]]  # none left above the plate's level
+        bed = bed[bed[:, 2] + bed[:, 3] <= level + PLATE_OVERLAP]  # none left above the plate's level
         O.bodies.clear()
         O.interactions.clear()
         self._scene(bed, floor, packing=True)

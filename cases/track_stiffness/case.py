@@ -14,6 +14,7 @@ THESIS_K_SUB = 102.22           # kN/mm
 THESIS_K_SUB_STIFF_BASE = 192.82  # kN/mm
 RANGE_KN_PER_MM = (70.0, 110.0)
 THESIS_TRACK_K = 75.0           # kN/mm
+THESIS_POROSITY = 0.3941        # of the packed track bed (§7.2, Fig. 7.3)
 KN_PER_MM = 1e6                 # N/m in a kN/mm
 
 
@@ -108,6 +109,9 @@ class TrackStiffness(Case):
         else:
             base = float(np.mean(np.asarray(series["base_force"])[dem_hold]))
         bed_weight = dem["total_particle_mass_kg"] * track.GRAVITY
+        # The bed's porosity between its base and the sleepers' base (Irazábal §7.2: 39.41 %).
+        bed_volume = fem["endX"] * (0.5 * p["sleeper_length"] + p["shoulder_width"]) * -base_z
+        porosity = 1.0 - dem["total_particle_mass_kg"] / p["ballast_density"] / bed_volume
         track_error = abs(interface - carried) / carried
         base_error = abs(base - (interface + bed_weight)) / (interface + bed_weight)
 
@@ -146,11 +150,12 @@ class TrackStiffness(Case):
                         "deflection_line_x_m": x.tolist(), "rail_deflection_line_m": rail_line.tolist(),
                         "winkler_deflection_line_m": winkler.tolist(), "interface_force_N": interface,
                         "base_force_N": base, "track_weight_N": fem["weight"], "bed_weight_N": bed_weight,
-                        "particles": dem["particles"], "total_particle_mass_kg": dem["total_particle_mass_kg"],
+                        "particles": dem["particles"], "bed_porosity": porosity, "bed_depth_m": -base_z,
+                        "total_particle_mass_kg": dem["total_particle_mass_kg"],
                         "base_young_Pa": track.base_young(p), "elements": fem["elements"], "dofs": fem["dofs"]},
             "reference": {"thesis_k_sub_kN_per_mm": THESIS_K_SUB, "thesis_k_sub_stiff_base_kN_per_mm":
                           THESIS_K_SUB_STIFF_BASE, "range_kN_per_mm": list(RANGE_KN_PER_MM),
-                          "thesis_track_stiffness_kN_per_mm": THESIS_TRACK_K,
+                          "thesis_track_stiffness_kN_per_mm": THESIS_TRACK_K, "thesis_bed_porosity": THESIS_POROSITY,
                           "winkler_rail_deflection_m": float(winkler[0])},
             "relative_error": {"track_stiffness_vs_thesis_k_sub": stiffness_error,
                                "sleeper_support_vs_thesis_k_sub": abs(k_support - THESIS_K_SUB) / THESIS_K_SUB,

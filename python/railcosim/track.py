@@ -6,15 +6,17 @@ line), z up (0 = the sleepers' base). The quarter holds half of the sleeper at x
 at `sleeper_spacing`, each half a sleeper long, and ends at end_x = (sleepers - 1/2) spacing, the middle of a crib.
 The ballast lies under the sleepers, between frictionless mirror walls at x = 0, x = end_x and y = 0 (the planes of
 symmetry) and a frictionless wall at the shoulder's edge, on a base wall whose contact stiffness stands for the
-subballast and the formation (Irazábal 2017 §7.2.1, Table 7.1).
+subballast and the formation (Irazábal 2017 §7.2.1, Table 7.1), or (subgrade = "layers") on FreeFEM subgrade layers
+in the track's mesh, coupled on their top face (built, not yet stable: cases/track_stiffness/README.md).
 
-A case uses it in three places:
+A case uses it in four places:
     case.py   fem_script = track.FEM_SCRIPT; fem_arguments(p) -> track.fem_arguments(p) (+ its load options)
     dem.py    bed = track.TrackBed(p, out)  (materials, walls, the packed bed from the cache, contact engines)
               coupling = dem.coupling_engine(material=bed.sleeper_material, ...)
               O.engines = bed.engines() + [coupling, NewtonIntegrator(gravity=(0, 0, -9.81))]
     postprocess: track.seat_forces(...), track.winkler_deflection(...)
-The parameters it reads are the [parameters] and [fem] names of cases/track_stiffness/case.toml (TRACK_KEYS).
+    bed.py    track.TrackBed(p, out) in a preparation run, so that the bed is packed before the FEM side waits
+The parameters it reads are the [parameters] and [fem] names of cases/track_stiffness/case.toml.
 """
 import math
 import os

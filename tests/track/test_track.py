@@ -1,0 +1,63 @@
+"""railcosim.track without YADE or FreeFEM: the Winkler closed form against the laws it must obey, and the sum of the
+interface's nodal forces per sleeper."""
+import os
+import sys
+import unittest
+
+import numpy as np
+
+sys.path.insert(0, os.path.join(os.path.dirname(__file__), "..", "..", "python"))
+from railcosim import track  # noqa: E402
+
+Q = 150e3          # N
+MODULUS = 17.6e6   # N/m^2, the default run's support modulus
+EI = 210e9 * 3038.3e-8  # N m^2, UIC60
+
+
+class WinklerTest(unittest.TestCase):
+    def test_foundation_carries_the_load(self):
+        """Vertical equilibrium of the infinite beam: the foundation's reaction k w integrated over x is Q. The tail
+        beyond 20/beta is below exp(-20); the trapezoid on 2e5 intervals is exact to 1e-8: tolerance 1e-6."""
+        beta = (MODULUS / (4 * EI)) ** 0.25
+        x = np.linspace(-20 / beta, 20 / beta, 200001)
+        reaction = np.trapz(MODULUS * track.winkler_deflection(x, Q, MODULUS, EI), x)
+        self.assertAlmostEqual(reaction / Q, 1.0, delta=1e-6)
+
+    def test_beam_equation_away_from_the_load(self):
+        """EI w'''' + k w = 0 where no load acts (Hetényi 1946, eq. 1): fourth differences at h = 0.01/beta carry a
+        truncation error of order (beta h)^2 = 1e-4 of k w: tolerance 1e-3 of k w(0)."""
+        beta = (MODULUS / (4 * EI)) ** 0.25
+        h = 0.01 / beta
+        x = np.arange(0.5 / beta, 4 / beta, h)
+        w = track.winkler_deflection(x, Q, MODULUS, EI)
+        fourth = (w[4:] - 4 * w[3:-1] + 6 * w[2:-2] - 4 * w[1:-3] + w[:-4]) / h ** 4
+        residual = EI * fourth + MODULUS * w[2:-2]
+        w0 = track.winkler_deflection(np.array([0.0]), Q, MODULUS, EI)[0]
+        self.assertLess(np.max(np.abs(residual)) / (MODULUS * w0), 1e-3)
+
+    def test_periodic_images_carry_one_load_per_period(self):
+        """With a load every P (the quarter's planes of symmetry at 0 and P/2), the half period [0, P/2] carries Q/2,
+        and the line is flat at both planes (w' = 0). Images beyond +-6 periods of 3 m weigh exp(-16): 1e-6."""
+        period = 3.0
+        x = np.linspace(0.0, period / 2, 20001)
+        w = track.winkler_deflection(x, Q, MODULUS, EI, period=period)
+        self.assertAlmostEqual(np.trapz(MODULUS * w, x) / (Q / 2), 1.0, delta=1e-6)
+        slope_end = (w[-1] - w[-2]) / (x[-1] - x[-2])
+        self.assertLess(abs(slope_end) * period / w[0], 1e-3)
+
+
+class SeatForcesTest(unittest.TestCase):
+    def test_forces_summed_per_sleeper(self):
+        """Nodes on the sleepers' bases (z = 0) go to the nearest sleeper's sum; nodes on subgrade layers (z = base)
+        are left out; the sleepers' sums add up to the sleeper nodes' total (conservation, exact)."""
+        p = {"sleeper_spacing": 0.6, "sleepers": 3}
+        positions = np.array([[0.0, 0.5, 0.0], [0.14, 0.7, 0.0], [0.55, 0.2, -0.001], [0.66, 1.0, 0.0],
+                              [1.25, 0.3, 0.0], [0.3, 0.5, -0.3], [1.0, 1.0, -0.3]])
+        forces = np.zeros((2, len(positions), 3))
+        forces[:, :, 2] = [[1, 2, 3, 4, 5, -60, -70], [10, 20, 30, 40, 50, -600, -700]]
+        seats = track.seat_forces(forces, positions, p, base_z=-0.3)
+        np.testing.assert_array_equal(seats, [[3, 7, 5], [30, 70, 50]])
+
+
+if __name__ == "__main__":
+    unittest.main()

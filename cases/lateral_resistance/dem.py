@@ -11,7 +11,7 @@ import time
 import numpy as np
 from yade import pack as yade_pack
 
-from railcosim import bedcache, results
+from railcosim import bedcache, results, track
 
 parameters_path, _, out = sys.argv[1:4]
 with open(parameters_path) as f:
@@ -59,16 +59,10 @@ BALLAST, SLEEPER, SLAB, MIRROR = range(4)
 slab = O.bodies.append(utils.wall(position=0.0, axis=2, sense=1, material=packing[SLAB]))
 mirrors = [O.bodies.append(utils.wall(position=s * half_y, axis=1, sense=-s, material=packing[MIRROR])) for s in (-1, 1)]
 
-# 4. Grading EN 13450 (Irazábal Table 2.1, mid-points of the passing bands), diameters scaled by size_scale.
-sieves = [0.0224, 0.0315, 0.040, 0.050, 0.063]
-passing = [0.0, 0.125, 0.475, 0.85, 1.0]
-sizes = [d * p["size_scale"] for d in sieves]
+# 4. Grading EN 13450 (Irazábal Table 2.1, mid-points of the passing bands), diameters scaled by size_scale, and the
+# grading's mean sphere volume (mass fractions per band, each band at its mid diameter).
+sizes, passing, mean_volume = track.grading(p["size_scale"])
 r_max = 0.5 * sizes[-1]
-
-
-# Mean sphere volume of the grading (mass fractions per band, each band at its mid diameter).
-mean_volume = 1.0 / sum((passing[k + 1] - passing[k]) / (math.pi / 6 * (0.5 * (sizes[k] + sizes[k + 1])) ** 3)
-                        for k in range(len(sizes) - 1))
 CLOUD_SOLID_FRACTION = 0.3  # random placement jams near 0.38; the bed settles to about 0.6
 
 

@@ -67,9 +67,13 @@ Options parse(int argc, char** argv) {
         std::exit(2);
       }
       o.settled = b == "settled";
-    } else if (a == "--pressure")
+    } else if (a == "--pressure") {
       o.pressure = std::atof(next().c_str());
-    else if (a == "--json")
+      if (!(o.pressure > 0.0)) {
+        std::fprintf(stderr, "--pressure: a lid pressure in Pa > 0, not %s\n", argv[k]);
+        std::exit(2);
+      }
+    } else if (a == "--json")
       o.json = next();
     else if (a == "--backend") {
       const std::string b = next();
@@ -80,6 +84,15 @@ Options parse(int argc, char** argv) {
     }
   }
   if (o.sizes.empty()) o.sizes = {10000};
+  for (const long n : o.sizes)
+    if (n < 1) {
+      std::fprintf(stderr, "--n: a number of stones >= 1, not %ld\n", n);
+      std::exit(2);
+    }
+  if (o.steps < 1 || o.prepare < 0) {
+    std::fprintf(stderr, "--steps must be >= 1 and --prepare >= 0\n");
+    std::exit(2);
+  }
   return o;
 }
 
@@ -170,16 +183,16 @@ double lidForce(const PolyhedraSystem& system, const std::vector<int>& lid) {
   return sum;
 }
 
-// The box of addLatticeBed (floor, four sides) and a lid of two triangles over the whole bed at height `lid`, facing
-// down; nodes 8–11 are the lid's.
-std::vector<double> boxWithLid(long requested, double lid) {
+// The box of addLatticeBed (latticeBox: floor, four sides, nodes 0–7, triangles 0–9) and a lid of two triangles over
+// the whole bed at height `lid`, facing down (nodes 8–11, triangles 10 and 11).
+WallMesh boxWithLid(long requested, double lid) {
   const int side = latticeSide(requested);
-  const double x = side * spacing, y = side * spacing, z = (layers + 1) * spacing;
-  return {0, 0, 0, x, 0, 0, x, y, 0, 0, y, 0, 0, 0, z, x, 0, z, x, y, z, 0, y, z,
-          0, 0, lid, x, 0, lid, x, y, lid, 0, y, lid};
+  WallMesh mesh = latticeBox(side, side, layers, spacing);
+  const double x = side * spacing, y = side * spacing;
+  mesh.nodes.insert(mesh.nodes.end(), {0, 0, lid, x, 0, lid, x, y, lid, 0, y, lid});
+  mesh.triangles.insert(mesh.triangles.end(), {8, 10, 9, 8, 11, 10});
+  return mesh;
 }
-const std::vector<std::int32_t> boxWithLidTriangles = {0, 1, 2, 0, 2, 3, 0, 4, 5, 0, 5, 1, 1, 5, 6, 1, 6, 2,
-                                                       2, 6, 7, 2, 7, 3, 3, 7, 4, 3, 4, 0, 8, 10, 9, 8, 11, 10};
 
 // Velocity servo of the lid (nodes 8–11 of `nodes`, moved here): it approaches at 0.5 m/s until it carries 2 % of
 // the target (0.5 mm per 100-step window at Δt = 1e-5 s: less than a contact's overlap at the target), then at up
@@ -218,7 +231,8 @@ Bed settledBed(const Options& options, long requested) {
   const int side = latticeSide(requested);
   bed.lidTriangles = {10, 11};
   bed.lidArea = side * spacing * side * spacing;
-  std::vector<double> nodes = boxWithLid(requested, (layers + 1) * spacing);
+  const WallMesh box = boxWithLid(requested, (layers + 1) * spacing);
+  std::vector<double> nodes = box.nodes;
   std::vector<double> positions, orientations;
   {
     // Falling 0.5 m under 10 g reaches ~10 m/s: 2.5 mm per 5 steps, inside half of a 6 mm skin.
@@ -228,7 +242,7 @@ Bed settledBed(const Options& options, long requested) {
     depositing.maxWallNeighbours = 12; // a stone in a corner under the lid: floor, two sides and lid, two each
     PolyhedraSystem deposit(depositing);
     addBed(deposit, requested, false);
-    deposit.setWalls(nodes, boxWithLidTriangles);
+    deposit.setWalls(nodes, box.triangles);
     deposit.setTimeStep(packingTimeStep);
     deposit.setGravity({0.0, 0.0, -98.1});
     double speed = 1e9;
@@ -242,7 +256,6 @@ Bed settledBed(const Options& options, long requested) {
     // Under load the coarse packing step let the bed stir at ~0.5 m/s and squeezed stones through the lid.
     deposit.setTimeStep(1e-5);
     deposit.setGravity({0.0, 0.0, -9.81});
-    std::vector<double> lidAtTop = nodes;
     const std::vector<double> p0 = deposit.positions();
     double top = 0.0;
     for (std::size_t k = 2; k < p0.size(); k += 3) top = std::max(top, p0[k]);
@@ -262,7 +275,7 @@ Bed settledBed(const Options& options, long requested) {
   addBed(system, requested, false); // the same stones in the same order; their state is replaced below
   const std::vector<double> zeros(positions.size(), 0.0);
   system.setState(positions, orientations, zeros, zeros);
-  system.setWalls(nodes, boxWithLidTriangles);
+  system.setWalls(nodes, box.triangles);
   const int restSteps = 10000; // 0.1 s: many wave transits of the bed's depth
   system.step(restSteps);
   bed.prepareSteps += restSteps;

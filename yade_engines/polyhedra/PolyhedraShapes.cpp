@@ -179,13 +179,16 @@ void addLatticeBed(PolyhedraSystem& system, const std::vector<int>& shapes, int 
                         q);
       }
   if (withBox) {
-    const double x = nx * spacing, y = ny * spacing, z = (nz + 1) * spacing;
-    const std::vector<double> nodes = {0, 0, 0, x, 0, 0, x, y, 0, 0, y, 0, 0, 0, z, x, 0, z, x, y, z, 0, y, z};
-    // Counter-clockwise seen from inside: floor, y = 0, x = max, y = max, x = 0.
-    const std::vector<std::int32_t> triangles = {0, 1, 2, 0, 2, 3, 0, 4, 5, 0, 5, 1, 1, 5, 6,
-                                                 1, 6, 2, 2, 6, 7, 2, 7, 3, 3, 7, 4, 3, 4, 0};
-    system.setWalls(nodes, triangles);
+    const WallMesh box = latticeBox(nx, ny, nz, spacing);
+    system.setWalls(box.nodes, box.triangles);
   }
+}
+
+WallMesh latticeBox(int nx, int ny, int nz, double spacing) {
+  const double x = nx * spacing, y = ny * spacing, z = (nz + 1) * spacing;
+  // Counter-clockwise seen from inside: floor, y = 0, x = max, y = max, x = 0.
+  return {{0, 0, 0, x, 0, 0, x, y, 0, 0, y, 0, 0, 0, z, x, 0, z, x, y, z, 0, y, z},
+          {0, 1, 2, 0, 2, 3, 0, 4, 5, 0, 5, 1, 1, 5, 6, 1, 6, 2, 2, 6, 7, 2, 7, 3, 3, 7, 4, 3, 4, 0}};
 }
 
 } // namespace railcosim::polyhedra

@@ -30,4 +30,12 @@ ShapeTemplate dodecahedronStone(double a, double b, double c, double dilationRad
 void addLatticeBed(PolyhedraSystem& system, const std::vector<int>& shapes, int nx, int ny, int nz, double spacing,
                    double jitter, unsigned seed, bool withBox);
 
+/// The box addLatticeBed sets with `withBox` (floor at z = 0 and four side walls up to (nz + 1) × spacing, 8 nodes,
+/// 10 triangles counter-clockwise seen from inside), for callers that add walls of their own to it (e.g. a lid).
+struct WallMesh {
+  std::vector<double> nodes;             ///< 3 coordinates per node [m]
+  std::vector<std::int32_t> triangles;   ///< 3 node indices per triangle
+};
+WallMesh latticeBox(int nx, int ny, int nz, double spacing);
+
 } // namespace railcosim::polyhedra

@@ -27,12 +27,18 @@ def runs_of(paths):
             for row in csv.DictReader(f):
                 if row["status"] != "ok":
                     continue
-                runs.append({"stones": int(row["stones"]), "seed": int(row["seed"]),
+                runs.append({"stones": int(row["stones"]), "count": int(float(row["metrics.stones"])),
+                             "seed": int(row["seed"]),
                              "settlement_mm": 1e3 * float(row["metrics.settlement_m"]),
                              "after_cycles_mm": 1e3 * float(row["metrics.settlement_after_cycles_m"]),
                              "pressures": {level: json.loads(row[f"metrics.sensor_pressure_kPa.{level}"])
                                            for level in LEVELS},
                              "source": os.path.basename(path)})
+    # stones = 0 is the seed's gradation in the seed's box: the count follows from the packing, so such runs are
+    # labelled by their mean count
+    seed_scale = [r for r in runs if r["stones"] == 0]
+    for r in seed_scale:
+        r["stones"] = round(statistics.fmean(s["count"] for s in seed_scale))
     return runs
 
 

@@ -1,7 +1,7 @@
 // Throughput benchmark of the polyhedra DEM: a packed bed of 20-vertex stones, GPU or CPU reference.
 //
 // Usage: polyhedra_bench [--n N]... [--steps S] [--prepare P] [--bed packing|settled] [--pressure PA]
-//                        [--backend cpu|cuda|auto] [--json FILE]
+//                        [--backend cpu|cuda|auto] [--json FILE] [--export PREFIX]
 //   Builds a shallow bed (8 layers) of about N dodecahedral stones (4 templates, random orientations),
 //   then times S production steps and prints one JSON record per N (also written to FILE as a JSON list),
 //   with the cost of a state snapshot (saveSnapshot, restoreSnapshot: the rollback of an implicit coupling
@@ -10,12 +10,16 @@
 //   settled  compacted ballast under a sleeper-like load: deposited without friction (denser, as ballast is
 //            compacted), then frictional stones under a lid pressed to PA (default 150 kPa) and held until the
 //            bed is at rest; the timed steps run under the held lid.
+//   --export PREFIX writes each bed after its timed steps to PREFIX-N.csv (one stone per row: position, velocity,
+//   mass, volume of the dilated stone, circumradius) with its box, lid, time step and contact parameters in comment
+//   lines: the same bed for another code (benchmarks/peers/deme).
 #include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
 #include <fstream>
+#include <stdexcept>
 #include <memory>
 #include <sstream>
 #include <string>
@@ -41,6 +45,7 @@ struct Options {
   double pressure = 150e3; // Pa: 132 kN on a 2.5 x 0.3 m sleeper base is 176 kPa; the bed below carries a little less
   Backend backend = Backend::Automatic;
   std::string json;
+  std::string exportPrefix;
 };
 
 Options parse(int argc, char** argv) {
@@ -75,6 +80,8 @@ Options parse(int argc, char** argv) {
       }
     } else if (a == "--json")
       o.json = next();
+    else if (a == "--export")
+      o.exportPrefix = next();
     else if (a == "--backend") {
       const std::string b = next();
       o.backend = b == "cpu" ? Backend::Cpu : b == "cuda" ? Backend::Cuda : Backend::Automatic;
@@ -122,13 +129,14 @@ int latticeSide(long requested) {
 }
 
 // The four stone templates and the lattice of about `requested` stones (same draw for the same size).
-void addBed(PolyhedraSystem& system, long requested, bool withBox) {
+// Returns the template of each stone.
+std::vector<int> addBed(PolyhedraSystem& system, long requested, bool withBox) {
   const std::vector<int> shapes = {system.addShape(dodecahedronStone(0.030, 0.025, 0.020, 0.003, 2600)),
                                    system.addShape(dodecahedronStone(0.026, 0.028, 0.022, 0.003, 2600)),
                                    system.addShape(dodecahedronStone(0.028, 0.022, 0.024, 0.003, 2600)),
                                    system.addShape(dodecahedronStone(0.024, 0.027, 0.026, 0.003, 2600))};
   const int side = latticeSide(requested);
-  addLatticeBed(system, shapes, side, side, layers, spacing, 0.0005, bedSeed, withBox);
+  return addLatticeBed(system, shapes, side, side, layers, spacing, 0.0005, bedSeed, withBox);
 }
 
 double maxSpeedOf(const PolyhedraSystem& system) {
@@ -151,6 +159,8 @@ struct Bed {
   double speedMedian = 0.0;    // its median [m/s]
   std::vector<int> lidTriangles;
   double lidArea = 0.0;
+  double lidHeight = 0.0;      // z of the held lid (settled bed) [m]
+  std::vector<int> shapeOfStone;
 };
 
 double seconds(std::chrono::steady_clock::time_point t) {
@@ -164,7 +174,7 @@ Bed packingBed(const Options& options, long requested) {
   const Parameters p = benchParameters(options.backend, 0.6);
   bed.system = std::make_unique<PolyhedraSystem>(p);
   PolyhedraSystem& system = *bed.system;
-  addBed(system, requested, true);
+  bed.shapeOfStone = addBed(system, requested, true);
   system.setTimeStep(packingTimeStep);
   system.setGravity({0.0, 0.0, -98.1});
   const auto start = std::chrono::steady_clock::now();
@@ -272,7 +282,8 @@ Bed settledBed(const Options& options, long requested) {
   p.maxWallNeighbours = 12;
   bed.system = std::make_unique<PolyhedraSystem>(p);
   PolyhedraSystem& system = *bed.system;
-  addBed(system, requested, false); // the same stones in the same order; their state is replaced below
+  bed.shapeOfStone = addBed(system, requested, false); // the same stones in the same order; state replaced below
+  bed.lidHeight = nodes[3 * 8 + 2];
   const std::vector<double> zeros(positions.size(), 0.0);
   system.setState(positions, orientations, zeros, zeros);
   system.setWalls(nodes, box.triangles);
@@ -292,6 +303,26 @@ Bed settledBed(const Options& options, long requested) {
               "lid %.1f kPa, %.1f s\n", restSteps, bed.speedMedian, bed.speed99, bed.restingSpeed,
               lidForce(system, bed.lidTriangles) / bed.lidArea / 1e3, bed.prepareSeconds);
   return bed;
+}
+
+// The bed as a table (--export): stones in the system's order, and what another code needs to rebuild the scene.
+void exportBed(const std::string& path, const PolyhedraSystem& system, const Bed& bed, long requested,
+               const Parameters& p) {
+  std::ofstream out(path);
+  if (!out) throw std::runtime_error("cannot write " + path);
+  out.precision(9);
+  const int side = latticeSide(requested);
+  const std::vector<double> x = system.positions(), v = system.velocities();
+  out << "# box_x_m " << side * spacing << "\n# box_y_m " << side * spacing << "\n# lid_z_m " << bed.lidHeight
+      << "\n# lid_pressure_Pa " << bed.lidPressure << "\n# time_step_s " << p.timeStep << "\n# young_Pa "
+      << p.stone.youngModulus << "\n# poisson " << p.stone.poissonRatio << "\n# restitution " << p.stone.restitution
+      << "\n# friction " << p.stone.friction << "\n# gravity_m_s2 " << -p.gravity[2] << "\n";
+  out << "x,y,z,vx,vy,vz,mass,volume,circumradius\n";
+  for (std::size_t k = 0; k < system.stoneCount(); ++k) {
+    const ShapeProperties& shape = system.shapeProperties(bed.shapeOfStone[k]);
+    out << x[3 * k] << ',' << x[3 * k + 1] << ',' << x[3 * k + 2] << ',' << v[3 * k] << ',' << v[3 * k + 1] << ','
+        << v[3 * k + 2] << ',' << shape.mass << ',' << shape.dilatedVolume << ',' << shape.circumradius << '\n';
+  }
 }
 
 } // namespace
@@ -362,6 +393,9 @@ int main(int argc, char** argv) {
            << ", \"snapshot_restore_s\": " << restoreSeconds << ", \"write_state_s\": " << writeSeconds
            << ", \"state_bytes\": " << state.str().size() << "}";
     records.push_back(record.str());
+    if (!options.exportPrefix.empty())
+      exportBed(options.exportPrefix + "-" + std::to_string(requested) + ".csv", system, bed, requested,
+                options.settled ? benchParameters(options.backend, 0.6, settledYoung) : p);
     std::printf("%-30s %10zu %6d %8.3f %10.4f %14.4e %14.4e %10.2f %10.4f\n", device.substr(0, 30).c_str(),
                 system.stoneCount(), options.steps, wall, 1e3 * wall / options.steps, particleSteps, contactsPerSecond,
                 contactsPerStone, fraction);

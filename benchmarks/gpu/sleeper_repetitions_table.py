@@ -23,6 +23,8 @@ def runs_of(paths):
     """Finished runs of the indexes: one dict per run (stones, seed, settlements in mm, pressures)."""
     runs = []
     for path in paths:
+        if not os.path.isfile(path):
+            raise SystemExit(f"no campaign index {path} (a campaign.csv of railcosim campaign)")
         with open(path) as f:
             for row in csv.DictReader(f):
                 if row["status"] != "ok":

@@ -158,13 +158,15 @@ ShapeTemplate dodecahedronStone(double a, double b, double c, double dilationRad
   return convexHullTemplate(points, dilationRadius, density);
 }
 
-void addLatticeBed(PolyhedraSystem& system, const std::vector<int>& shapes, int nx, int ny, int nz, double spacing,
-                   double jitter, unsigned seed, bool withBox) {
+std::vector<int> addLatticeBed(PolyhedraSystem& system, const std::vector<int>& shapes, int nx, int ny, int nz,
+                               double spacing, double jitter, unsigned seed, bool withBox) {
   if (shapes.empty() || nx < 1 || ny < 1 || nz < 1 || !(spacing > 0.0))
     throw Error("addLatticeBed: need at least one shape, positive counts and a positive spacing");
   std::mt19937_64 random(seed);
   std::uniform_real_distribution<double> unit(-1.0, 1.0);
   std::normal_distribution<double> gauss(0.0, 1.0);
+  std::vector<int> shapeOfStone;
+  shapeOfStone.reserve(static_cast<std::size_t>(nx) * ny * nz);
   for (int iz = 0; iz < nz; ++iz)
     for (int iy = 0; iy < ny; ++iy)
       for (int ix = 0; ix < nx; ++ix) {
@@ -173,6 +175,7 @@ void addLatticeBed(PolyhedraSystem& system, const std::vector<int>& shapes, int 
         const double length = std::sqrt(q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3]);
         for (double& c : q) c /= length;
         const int shape = shapes[random() % shapes.size()];
+        shapeOfStone.push_back(shape);
         system.addStone(shape,
                         {(ix + 0.5) * spacing + jitter * unit(random), (iy + 0.5) * spacing + jitter * unit(random),
                          (iz + 0.5) * spacing + jitter * unit(random)},
@@ -182,6 +185,7 @@ void addLatticeBed(PolyhedraSystem& system, const std::vector<int>& shapes, int 
     const WallMesh box = latticeBox(nx, ny, nz, spacing);
     system.setWalls(box.nodes, box.triangles);
   }
+  return shapeOfStone;
 }
 
 WallMesh latticeBox(int nx, int ny, int nz, double spacing) {

@@ -27,8 +27,9 @@ ShapeTemplate dodecahedronStone(double a, double b, double c, double dilationRad
 /// (first stone centre at (spacing/2, spacing/2, spacing/2)), each with a template drawn from `shapes`, a
 /// random orientation and a jitter of ±`jitter` [m] per axis; reproducible from `seed`. With
 /// `withBox`, a floor at z = 0 and four side walls enclose the lattice (10 triangles, set with setWalls).
-void addLatticeBed(PolyhedraSystem& system, const std::vector<int>& shapes, int nx, int ny, int nz, double spacing,
-                   double jitter, unsigned seed, bool withBox);
+/// Returns the template of each stone added, in the order added.
+std::vector<int> addLatticeBed(PolyhedraSystem& system, const std::vector<int>& shapes, int nx, int ny, int nz,
+                               double spacing, double jitter, unsigned seed, bool withBox);
 
 /// The box addLatticeBed sets with `withBox` (floor at z = 0 and four side walls up to (nz + 1) × spacing, 8 nodes,
 /// 10 triangles counter-clockwise seen from inside), for callers that add walls of their own to it (e.g. a lid).

@@ -36,6 +36,12 @@ def interior_sleepers(p):
     return list(range(1, p["sleepers"] - 1))
 
 
+def lag_fit(peaks, sleepers):
+    """The lag [s]: the slope of the peaks' times against the sleepers' numbers (least squares: every sleeper counts,
+    not only the first and the last)."""
+    return float(np.polyfit(np.asarray(sleepers, dtype=float), peaks, 1)[0])
+
+
 def peak_time(t, y, centre, half_width):
     """Time of the maximum of y(t) within centre +- half_width, refined by the parabola through the highest sample
     and its neighbours (sampling error well below a step)."""
@@ -69,7 +75,8 @@ class TrainPassage(Case):
         half the axle load (the half track holds one rail)."""
         return {**track.fem_arguments(p), "wheelLoad": 0.5 * p["axle_load_N"], "loadStart": p["load_start_s"],
                 "rampTime": p["ramp_s"], "loadLength": p["load_length"],
-                "axles": ",".join(f"{x:.6g}" for x in axle_positions(p)), "speed": p["speed"]}
+                "axles": ",".join(f"{x:.6g}" for x in axle_positions(p)), "speed": p["speed"],
+                "exitLength": p["exit_length"], "seatFactor": p["seat_factor"], "seatTime": p["seat_time_s"]}
 
     @staticmethod
     def _track_case(p):
@@ -92,6 +99,9 @@ class TrainPassage(Case):
         problems = []
         if p["x_symmetry"]:
             problems.append("x_symmetry: the moving wheels need the half track (x_symmetry = false)")
+        if p["seat_time_s"] + p["average_s"] > p["load_start_s"] + 1e-12:
+            problems.append(f"seat_time_s {p['seat_time_s']} s: the seating pulse must end average_s before the load "
+                            f"starts (load_start_s {p['load_start_s']} s)")
         if p["average_s"] > p["load_start_s"] + 1e-12:
             problems.append(f"average_s {p['average_s']} s: the state under the weight alone is averaged before the "
                             f"load starts (load_start_s {p['load_start_s']} s)")
@@ -100,9 +110,10 @@ class TrainPassage(Case):
         if p["duration_s"] < needed - 1e-9:
             problems.append(f"duration_s {p['duration_s']} s: the trailing axle passes sleeper "
                             f"{interior_sleepers(p)[-1]} only at {needed:.4g} s")
-        if axle_positions(p)[-1] > track.end_x(p) - 0.5 * p["load_length"]:
+        reach = track.end_x(p) - max(0.5 * p["load_length"], p["exit_length"])
+        if axle_positions(p)[-1] > reach:
             problems.append(f"axles {p['axles']} x bogie_wheelbase {p['bogie_wheelbase']} m: the leading axle must "
-                            f"stand on the rail (up to {track.end_x(p) - 0.5 * p['load_length']:.3g} m)")
+                            f"stand on the rail with its whole load (up to {reach:.3g} m)")
         if p["loose_zone"] > 0 and p["loose_zone_first"] + p["loose_zone"] - 1 > interior_sleepers(p)[-1]:
             problems.append("loose_zone: the loose sleepers must be among the measured ones (1 to sleepers - 2)")
         return problems
@@ -128,16 +139,16 @@ class TrainPassage(Case):
         # 1. The sleepers' loads from the rail: each rail seat's pad force, k_bp times its compression (the rail's
         #    deflection over the seat less the sleeper's; the concrete's and the rail's own compression are 1e-3 of it),
         #    Zimmermann's Q_S (Irazábal eq. 7.13). The lag: each measured sleeper's peak as the trailing axle (x = 0 at
-        #    the roll's start) passes it, the mean step between successive sleepers' peaks.
+        #    the roll's start) passes it, the slope of their times against the sleepers' numbers.
         seat_load = p["pad_stiffness"] * (rail_down[seat_index] - seat_down[seat_index])  # (sleepers, steps) [N]
         passing = start + np.array(measured) * spacing / speed
         peaks = np.array([peak_time(t, seat_load[k], c, PEAK_WINDOW * lag) for k, c in zip(measured, passing)])
-        sleeper_lag = float(np.mean(np.diff(peaks)))
+        sleeper_lag = lag_fit(peaks, measured)
         peak_seat_load = np.array([float(np.max(seat_load[k][t >= p["load_start_s"]])) for k in measured])
         # The settlements' peaks (a sleeper's settlement also holds its seating on the bed: README) and their lag.
         settlement_peaks = np.array([peak_time(t, settlement[k], c, PEAK_WINDOW * lag)
                                      for k, c in zip(measured, passing)])
-        settlement_lag = float(np.mean(np.diff(settlement_peaks)))
+        settlement_lag = lag_fit(settlement_peaks, measured)
         peak_settlement = np.array([float(np.max(settlement[k][t >= p["load_start_s"]])) for k in measured])
         max_settlement = float(np.max(peak_settlement))
         end_settlement = settlement[:, -1]
@@ -149,7 +160,7 @@ class TrainPassage(Case):
         ballast_load = seats - seats[dem_before].mean(axis=0)
         load_peaks = np.array([peak_time(td, ballast_load[:, k], c, PEAK_WINDOW * lag)
                                for k, c in zip(measured, passing)])
-        load_lag = float(np.mean(np.diff(load_peaks)))
+        load_lag = lag_fit(load_peaks, measured)
         peak_load = np.array([float(np.max(ballast_load[td >= p["load_start_s"], k])) for k in measured])
 
         # 3. The rail under the wheels, against the Winkler beam under moving loads (Fryba 1999: steady state of an
@@ -159,6 +170,7 @@ class TrainPassage(Case):
         rolling = np.flatnonzero(t >= start)
         axles = len(axle_positions(p))
         wheel_x = np.array([monitor[f"wheelX{i}"] for i in range(axles)])  # (axles, steps)
+        wheel_load = np.array([monitor[f"wheelLoad{i}"] for i in range(axles)])  # applied [N]
         rail_before = rail[:, before].mean(axis=1)
         under = np.array([np.interp(wheel_x[i], x, rail_before) - np.asarray(monitor[f"wheelUz{i}"])
                           for i in range(axles)])  # deflection under each wheel
@@ -172,7 +184,7 @@ class TrainPassage(Case):
         ratios, moduli = [], []
         for j in trailing:
             modulus = applied[j] / np.trapz(rail_down[:, j], x)
-            loads = [(wheel_x[i, j], wheel) for i in range(axles) if fem["xStart"] <= wheel_x[i, j] <= fem["endX"]]
+            loads = [(wheel_x[i, j], wheel_load[i, j]) for i in range(axles) if wheel_load[i, j] > 0]
             static = winkler_mirrored([wheel_x[0, j]], loads, modulus, bending, fem["xStart"], fem["endX"])[0]
             ratios.append(under[0, j] / static)
             moduli.append(modulus)
@@ -183,13 +195,14 @@ class TrainPassage(Case):
         winkler_error = abs(ratio / amplification - 1.0)
 
         # 4. The structure's vertical momentum balance (whole run from the first step; Newmark's average acceleration
-        #    integrates the loads by the trapezoidal rule): dP = int (ballast force - weight - wheels) dt - rayleigh_mass
+        #    integrates the loads by the trapezoidal rule): dP = int (ballast force - weight - seating pulse - wheels) dt
+        #    - rayleigh_mass
         #    int P dt (mass-proportional damping acts like an outer force on the whole structure).
         momentum = np.asarray(monitor["momentumZ"])
-        net = np.asarray(monitor["forceZ"]) - fem["weight"] - applied
+        net = np.asarray(monitor["forceZ"]) - fem["weight"] - np.asarray(monitor["seatLoad"]) - applied
         steps = slice(1, None)
         impulse = np.trapz(net[steps], t[steps]) - p["rayleigh_mass"] * np.trapz(momentum[steps], t[steps])
-        scale = np.trapz(fem["weight"] + applied[steps], t[steps])
+        scale = np.trapz(fem["weight"] + np.asarray(monitor["seatLoad"])[steps] + applied[steps], t[steps])
         momentum_error = abs(impulse - (momentum[-1] - momentum[1])) / scale
 
         # 5. The bed: porosity overall and in the loose zone (the packed bed of the cache, between its base and z = 0).
@@ -230,7 +243,7 @@ class TrainPassage(Case):
 
         fine = np.linspace(fem["xStart"], fem["endX"], 300)
         self._plot(out, p, t, td, x, settlement, seat_load, ballast_load, rail_down, measured, peaks, under, wheel_x,
-                   rolling, inside, applied, fine, bending, amplification)
+                   wheel_load, rolling, inside, applied, fine, bending, amplification)
         results.write_timeseries(os.path.join(out, "timeseries.h5"), {
             "dem": {k: v for k, v in series.items() if k not in ("triangles", "node_positions")},
             "fem": monitor, "sleepers": {"settlement": settlement, "rail_seat_load": seat_load, "time_fem": t,
@@ -272,7 +285,7 @@ class TrainPassage(Case):
 
     @staticmethod
     def _plot(out, p, t, td, x, settlement, seat_load, ballast_load, rail_down, measured, peaks, under, wheel_x,
-              rolling, inside, applied, fine, bending, amplification):
+              wheel_load, rolling, inside, applied, fine, bending, amplification):
         """passage.png: the sleepers' settlements, rail-seat loads and the ballast's reactions over time; the loads
         shifted by k spacing / speed (one curve if the lag is spacing / speed); the rail under the trailing wheel against
         Winkler's."""
@@ -313,8 +326,7 @@ class TrainPassage(Case):
         winkler = []
         for i in j:
             modulus = applied[i] / np.trapz(rail_down[:, i], x)
-            loads = [(wheel_x[n, i], 0.5 * p["axle_load_N"]) for n in range(wheel_x.shape[0])
-                     if fine[0] <= wheel_x[n, i] <= fine[-1]]
+            loads = [(wheel_x[n, i], wheel_load[n, i]) for n in range(wheel_x.shape[0]) if wheel_load[n, i] > 0]
             winkler.append(winkler_mirrored([wheel_x[0, i]], loads, modulus, bending, fine[0], fine[-1])[0])
         d.plot(wheel_x[0, j], np.array(winkler) * amplification * 1e3, "--",
                label=f"Winkler, measured modulus, x {amplification:.3f} (moving load)")

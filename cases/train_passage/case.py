@@ -183,7 +183,10 @@ class TrainPassage(Case):
         trailing = rolling[inside[0, rolling]]
         ratios, moduli = [], []
         for j in trailing:
-            modulus = applied[j] / np.trapz(rail_down[:, j], x)
+            area = np.trapz(rail_down[:, j], x)
+            if area <= 0:  # the rail above its state under the weight (the bed's rebound): no foundation to measure
+                continue
+            modulus = applied[j] / area
             loads = [(wheel_x[i, j], wheel_load[i, j]) for i in range(axles) if wheel_load[i, j] > 0]
             static = winkler_mirrored([wheel_x[0, j]], loads, modulus, bending, fem["xStart"], fem["endX"])[0]
             ratios.append(under[0, j] / static)
@@ -253,15 +256,17 @@ class TrainPassage(Case):
         checks = [
             {"name": "structure's vertical momentum balance (share of the weight and wheels' impulse)",
              "value": momentum_error, "limit": p["momentum_tolerance"]},
-            {"name": "sleeper lag vs spacing / speed", "value": lag_error, "limit": p["lag_tolerance"]},
-            {"name": "rail under the trailing wheel vs the moving-load Winkler beam (measured modulus)",
-             "value": winkler_error, "limit": p["winkler_tolerance"]},
         ]
         relative_error = {"sleeper_lag_vs_spacing_over_speed": lag_error,
                           "sleeper_lag_vs_thesis": abs(sleeper_lag - THESIS_LAG_S) / THESIS_LAG_S,
                           "rail_deflection_vs_winkler": winkler_error, "momentum_balance": momentum_error,
                           "settlement_vs_thesis": abs(max_settlement - THESIS_SETTLEMENT_M) / THESIS_SETTLEMENT_M}
-        if not p["smoke"]:  # the thesis's figures need the default bed and the bogie
+        if not p["smoke"]:  # the default bed and the bogie (the smoke's four sleepers on a bed of 62 % porosity carry
+            # no sleeper-to-sleeper figure: README; its lag and Winkler figures are in relative_error)
+            checks += [
+                {"name": "sleeper lag vs spacing / speed", "value": lag_error, "limit": p["lag_tolerance"]},
+                {"name": "rail under the trailing wheel vs the moving-load Winkler beam (measured modulus)",
+                 "value": winkler_error, "limit": p["winkler_tolerance"]}]
             if zone:
                 target = THESIS_LOOSE_SETTLEMENT_M / THESIS_SETTLEMENT_M
                 error = abs(metrics["loose_to_compacted_ratio"] - target) / target
@@ -325,7 +330,8 @@ class TrainPassage(Case):
         d.plot(wheel_x[0, j], under[0, j] * 1e3, label="rail under the trailing wheel (FEM)")
         winkler = []
         for i in j:
-            modulus = applied[i] / np.trapz(rail_down[:, i], x)
+            area = np.trapz(rail_down[:, i], x)
+            modulus = applied[i] / area if area > 0 else np.nan
             loads = [(wheel_x[n, i], wheel_load[n, i]) for n in range(wheel_x.shape[0]) if wheel_load[n, i] > 0]
             winkler.append(winkler_mirrored([wheel_x[0, i]], loads, modulus, bending, fine[0], fine[-1])[0])
         d.plot(wheel_x[0, j], np.array(winkler) * amplification * 1e3, "--",

@@ -55,18 +55,6 @@ def peak_time(t, y, centre, half_width):
     return float(t[i])
 
 
-def winkler_mirrored(x, loads, modulus, bending, start, end):
-    """Winkler deflection [m] at x of point loads [(x_i, Q_i)] on a beam whose ends start and end are mirror planes
-    (the track's ends in the middle of a crib): each load's images at 2 start - x_i and, for both, every 2 (end -
-    start)."""
-    period = 2.0 * (end - start)
-    w = np.zeros_like(np.asarray(x, dtype=float))
-    for c, q in loads:
-        for image in (c, 2.0 * start - c):
-            w += track.winkler_deflection(np.asarray(x) - image, q, modulus, bending, period=period)
-    return w
-
-
 class TrainPassage(Case):
     fem_script = track.FEM_SCRIPT
 
@@ -188,7 +176,7 @@ class TrainPassage(Case):
                 continue
             modulus = applied[j] / area
             loads = [(wheel_x[i, j], wheel_load[i, j]) for i in range(axles) if wheel_load[i, j] > 0]
-            static = winkler_mirrored([wheel_x[0, j]], loads, modulus, bending, fem["xStart"], fem["endX"])[0]
+            static = track.winkler_mirrored([wheel_x[0, j]], loads, modulus, bending, fem["xStart"], fem["endX"])[0]
             ratios.append(under[0, j] / static)
             moduli.append(modulus)
         modulus = float(np.mean(moduli))
@@ -333,7 +321,7 @@ class TrainPassage(Case):
             area = np.trapz(rail_down[:, i], x)
             modulus = applied[i] / area if area > 0 else np.nan
             loads = [(wheel_x[n, i], wheel_load[n, i]) for n in range(wheel_x.shape[0]) if wheel_load[n, i] > 0]
-            winkler.append(winkler_mirrored([wheel_x[0, i]], loads, modulus, bending, fine[0], fine[-1])[0])
+            winkler.append(track.winkler_mirrored([wheel_x[0, i]], loads, modulus, bending, fine[0], fine[-1])[0])
         d.plot(wheel_x[0, j], np.array(winkler) * amplification * 1e3, "--",
                label=f"Winkler, measured modulus, x {amplification:.3f} (moving load)")
         d.set_xlabel("trailing wheel's x [m]")

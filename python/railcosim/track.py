@@ -159,6 +159,19 @@ def winkler_deflection(x, wheel_load, modulus, bending_stiffness, period=None, i
     return w
 
 
+def winkler_mirrored(x, loads, modulus, bending_stiffness, start, end):
+    """Winkler deflection [m] at x of point loads [(x_i, Q_i)] on a beam whose ends `start` and `end` are mirror planes
+    (the half track's rail ends, in the middle of a crib): each load's image through `start`, and both repeated every
+    2 (end - start) (winkler_deflection's periodic images)."""
+    period = 2.0 * (end - start)
+    x = np.asarray(x, dtype=float)
+    w = np.zeros_like(x)
+    for c, q in loads:
+        for image in (c, 2.0 * start - c):
+            w += winkler_deflection(x - image, q, modulus, bending_stiffness, period=period)
+    return w
+
+
 class TrackBed:
     """The YADE side of the track scene: materials, the base wall and the mirror walls, the ballast bed packed once
     (cached by bedcache), and the contact engines. Construct inside YADE."""

@@ -141,7 +141,8 @@ class TrainPassage(Case):
         max_settlement = float(np.max(peak_settlement))
         end_settlement = settlement[:, -1]
 
-        # 2. The ballast's reaction on each sleeper (interface nodal forces), less that under the weight; its peaks' lag.
+        # 2. The ballast's reaction on each sleeper (interface nodal forces), less that under the weight; its peaks'
+        #    lag.
         td = np.asarray(series["time"])
         seats = track.seat_forces(series["nodal_forces"], series["node_positions"], p, dem["base_z"])
         dem_before = (td > p["load_start_s"] - p["average_s"]) & (td <= p["load_start_s"])
@@ -186,8 +187,8 @@ class TrainPassage(Case):
         winkler_error = abs(ratio / amplification - 1.0)
 
         # 4. The structure's vertical momentum balance (whole run from the first step; Newmark's average acceleration
-        #    integrates the loads by the trapezoidal rule): dP = int (ballast force - weight - seating pulse - wheels) dt
-        #    - rayleigh_mass
+        #    integrates the loads by the trapezoidal rule): dP = int (ballast force - weight - seating pulse -
+        #    wheels) dt - rayleigh_mass
         #    int P dt (mass-proportional damping acts like an outer force on the whole structure).
         momentum = np.asarray(monitor["momentumZ"])
         net = np.asarray(monitor["forceZ"]) - fem["weight"] - np.asarray(monitor["seatLoad"]) - applied
@@ -280,8 +281,8 @@ class TrainPassage(Case):
     def _plot(out, p, t, td, x, settlement, seat_load, ballast_load, rail_down, measured, peaks, under, wheel_x,
               wheel_load, rolling, inside, applied, fine, bending, amplification):
         """passage.png: the sleepers' settlements, rail-seat loads and the ballast's reactions over time; the loads
-        shifted by k spacing / speed (one curve if the lag is spacing / speed); the rail under the trailing wheel against
-        Winkler's."""
+        shifted by k spacing / speed (one curve if the lag is spacing / speed); the rail under the trailing wheel
+        against Winkler's."""
         import matplotlib
         matplotlib.use("Agg")
         import matplotlib.pyplot as plt

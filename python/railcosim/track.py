@@ -97,7 +97,8 @@ def fem_arguments(p):
     layers = p["subgrade"] == "layers"
     return {"geo": os.path.join(os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__)))),
                                 "freefem_scripts", "examples", "track.geo"),
-            "sleepers": p["sleepers"], "xStart": start_x(p), "spacing": p["sleeper_spacing"], "sleeperWidth": p["sleeper_width"],
+            "sleepers": p["sleepers"], "xStart": start_x(p), "spacing": p["sleeper_spacing"],
+            "sleeperWidth": p["sleeper_width"],
             "sleeperHalfLength": 0.5 * p["sleeper_length"], "sleeperHeight": p["sleeper_height"],
             "padLength": p["pad_length"], "padThickness": p["pad_thickness"], "padStiffness": p["pad_stiffness"],
             "railWidth": width, "railHeight": height, "railY": 0.5 * p["rail_gauge"],

@@ -1,5 +1,5 @@
-# Preparation run of the track stiffness case: the ballast bed of railcosim.track packed once per geometry, grading and
-# materials and kept in the bed cache (the coupled run's dem.py then finds it there; the FEM side would not wait for a
+# Preparation run of the track cases (track_stiffness; train_passage runs it too): the ballast bed of railcosim.track
+# packed once per geometry, grading and materials and kept in the bed cache (the coupled run's dem.py then finds it there; the FEM side would not wait for a
 # packing) and its base's height written to OUT/bed.json.
 # Run by `railcosim run` as: railcosim yade bed.py PARAMETERS.json OUTDIR
 import json

@@ -1,5 +1,6 @@
-# DEM participant of the track stiffness case: the ballast bed of a quarter of a straight track (railcosim.track) under
-# the sleepers' bases, which arrive from FreeFEM (freefem_scripts/examples/track.edp) as the coupled surface.
+# DEM participant of the track cases (track_stiffness; train_passage runs it too): the ballast bed of a quarter or a
+# half of a straight track (railcosim.track) under the sleepers' bases, which arrive from FreeFEM
+# (freefem_scripts/examples/track.edp) as the coupled surface.
 # Run by `railcosim run` as: railcosim yade dem.py PARAMETERS.json ENDPOINT OUTDIR
 import numpy as np
 

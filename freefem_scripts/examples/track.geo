@@ -1,4 +1,7 @@
 // Straight ballasted track, a quarter of it (gmsh geometry, OpenCASCADE kernel): sleepers, rail pads and one rail.
+// With xStart < 0 (-spacing/2: the middle of the crib before the first sleeper) a half track instead: the first
+// sleeper whole, the rail from xStart to endX (both ends in the middle of a crib), for loads that are not symmetric
+// in x (a moving wheel); the labels below keep their meaning, label 2 being the rail's end face at x = xStart.
 //
 // Axes (metres): x along the track, y across it, z up. x = 0 is the plane of symmetry through the loaded sleeper's
 // centre (the wheel stands there), y = 0 the track's centre line (the plane of symmetry between the two rails),
@@ -20,6 +23,9 @@ SetFactory("OpenCASCADE");
 
 If (!Exists(sleepers))
   sleepers = 3;
+EndIf
+If (!Exists(xStart))
+  xStart = 0;
 EndIf
 If (!Exists(spacing))
   spacing = 0.6;
@@ -78,24 +84,24 @@ padTop = sleeperHeight + padThickness;
 top = padTop + railHeight;
 For k In {0:sleepers - 1}
   x0 = k * spacing - 0.5 * sleeperWidth;
-  If (x0 < 0)
-    x0 = 0;
+  If (x0 < xStart)
+    x0 = xStart;
   EndIf
   Box(k + 1) = {x0, 0, 0, k * spacing + 0.5 * sleeperWidth - x0, sleeperHalfLength, sleeperHeight};
   p0 = k * spacing - 0.5 * padLength;
-  If (p0 < 0)
-    p0 = 0;
+  If (p0 < xStart)
+    p0 = xStart;
   EndIf
   Box(100 + k + 1) = {p0, railY - 0.5 * railWidth, sleeperHeight, k * spacing + 0.5 * padLength - p0, railWidth,
                       padThickness};
 EndFor
-Box(1000) = {0, railY - 0.5 * railWidth, padTop, endX, railWidth, railHeight};
+Box(1000) = {xStart, railY - 0.5 * railWidth, padTop, endX - xStart, railWidth, railHeight};
 layers = subballastThickness + formationThickness;
 If (subballastThickness > 0)
-  Box(2000) = {0, 0, baseZ - subballastThickness, endX, bedWidth, subballastThickness};
+  Box(2000) = {xStart, 0, baseZ - subballastThickness, endX - xStart, bedWidth, subballastThickness};
 EndIf
 If (formationThickness > 0)
-  Box(2001) = {0, 0, baseZ - layers, endX, bedWidth, formationThickness};
+  Box(2001) = {xStart, 0, baseZ - layers, endX - xStart, bedWidth, formationThickness};
 EndIf
 BooleanFragments{ Volume{:}; Delete; }{}
 bottom = baseZ - layers;
@@ -105,23 +111,23 @@ EndIf
 
 e = 1e-6;
 big = 1e3;
-sleeperVolumes[] = Volume In BoundingBox{-e, -e, -e, endX + e, sleeperHalfLength + e, sleeperHeight + e};
-padVolumes[] = Volume In BoundingBox{-e, -e, sleeperHeight - e, endX + e, sleeperHalfLength + e, padTop + e};
-railVolumes[] = Volume In BoundingBox{-e, -e, padTop - e, endX + e, sleeperHalfLength + e, top + e};
-subballastVolumes[] = Volume In BoundingBox{-e, -e, baseZ - subballastThickness - e, endX + e, big, baseZ + e};
-formationVolumes[] = Volume In BoundingBox{-e, -e, bottom - e, endX + e, big, baseZ - subballastThickness + e};
+sleeperVolumes[] = Volume In BoundingBox{xStart - e, -e, -e, endX + e, sleeperHalfLength + e, sleeperHeight + e};
+padVolumes[] = Volume In BoundingBox{xStart - e, -e, sleeperHeight - e, endX + e, sleeperHalfLength + e, padTop + e};
+railVolumes[] = Volume In BoundingBox{xStart - e, -e, padTop - e, endX + e, sleeperHalfLength + e, top + e};
+subballastVolumes[] = Volume In BoundingBox{xStart - e, -e, baseZ - subballastThickness - e, endX + e, big, baseZ + e};
+formationVolumes[] = Volume In BoundingBox{xStart - e, -e, bottom - e, endX + e, big, baseZ - subballastThickness + e};
 outer[] = CombinedBoundary{ Volume{:}; };
-base[] = Surface In BoundingBox{-e, -e, -e, endX + e, sleeperHalfLength + e, e};
+base[] = Surface In BoundingBox{xStart - e, -e, -e, endX + e, sleeperHalfLength + e, e};
 If (layers > 0)
-  base[] += Surface In BoundingBox{-e, -e, baseZ - e, endX + e, big, baseZ + e};
+  base[] += Surface In BoundingBox{xStart - e, -e, baseZ - e, endX + e, big, baseZ + e};
 EndIf
-xSymmetry[] = Surface In BoundingBox{-e, -e, -big, e, big, top + e};
-ySymmetry[] = Surface In BoundingBox{-e, -e, -big, endX + e, e, top + e};
+xSymmetry[] = Surface In BoundingBox{xStart - e, -e, -big, xStart + e, big, top + e};
+ySymmetry[] = Surface In BoundingBox{xStart - e, -e, -big, endX + e, e, top + e};
 railEnd[] = Surface In BoundingBox{endX - e, -e, -big, endX + e, big, top + e};
-railTop[] = Surface In BoundingBox{-e, -e, top - e, endX + e, sleeperHalfLength + e, top + e};
+railTop[] = Surface In BoundingBox{xStart - e, -e, top - e, endX + e, sleeperHalfLength + e, top + e};
 layerBottom[] = {};
 If (layers > 0)
-  layerBottom[] = Surface In BoundingBox{-e, -e, bottom - e, endX + e, big, bottom + e};
+  layerBottom[] = Surface In BoundingBox{xStart - e, -e, bottom - e, endX + e, big, bottom + e};
 EndIf
 others[] = outer[];
 others[] -= base[];

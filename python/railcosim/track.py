@@ -9,6 +9,11 @@ symmetry) and a frictionless wall at the shoulder's edge, on a base wall whose c
 subballast and the formation (Irazábal 2017 §7.2.1, Table 7.1), or (subgrade = "layers") on FreeFEM subgrade layers
 in the track's mesh, coupled on their top face (built, not yet stable: cases/track_stiffness/README.md).
 
+A half track (x_symmetry = false, cases/train_passage: a moving wheel breaks the symmetry in x) holds `sleepers`
+whole sleepers at 0, spacing, ... and runs from start_x = -spacing/2 to end_x, both the middle of a crib, with the
+same mirror walls there; a loosely packed zone under `loose_zone` sleepers from sleeper `loose_zone_first` on
+(Irazábal 2017 §7.2.3: packed with friction) may be set for it.
+
 A case uses it in four places:
     case.py   fem_script = track.FEM_SCRIPT; fem_arguments(p) -> track.fem_arguments(p) (+ its load options)
     dem.py    bed = track.TrackBed(p, out)  (materials, walls, the packed bed from the cache, contact engines)
@@ -16,7 +21,9 @@ A case uses it in four places:
               O.engines = bed.engines() + [coupling, NewtonIntegrator(gravity=(0, 0, -9.81))]
     postprocess: track.seat_forces(...), track.winkler_deflection(...)
     bed.py    track.TrackBed(p, out) in a preparation run, so that the bed is packed before the FEM side waits
-The parameters it reads are the [parameters] and [fem] names of cases/track_stiffness/case.toml.
+The parameters it reads are the [parameters] and [fem] names of cases/track_stiffness/case.toml (and, for the half
+track, x_symmetry, loose_zone, loose_zone_first and loose_friction of cases/train_passage/case.toml; absent, the
+quarter without a loose zone).
 """
 import math
 import os
@@ -50,15 +57,37 @@ def rail_rectangle(area=UIC60_AREA, second_moment=UIC60_SECOND_MOMENT):
     return area / height, height
 
 
+def half_track(p):
+    """True for the half track (no plane of symmetry in x: x_symmetry = false)."""
+    return not p.get("x_symmetry", True)
+
+
+def start_x(p):
+    """x [m] where the track's scene starts: 0 (the quarter's plane of symmetry) or, for the half track, -spacing/2
+    (the middle of the crib before the first sleeper)."""
+    return -0.5 * p["sleeper_spacing"] if half_track(p) else 0.0
+
+
+def loose_range(p):
+    """(x from, x to) [m] of the loosely packed zone (the cribs' middles around sleepers loose_zone_first to
+    loose_zone_first + loose_zone - 1), or None."""
+    count = p.get("loose_zone", 0)
+    if count <= 0:
+        return None
+    first = p["loose_zone_first"]
+    return ((first - 0.5) * p["sleeper_spacing"], (first + count - 0.5) * p["sleeper_spacing"])
+
+
 def end_x(p):
     """x [m] of the quarter's far plane of symmetry, the middle of the crib after the last sleeper."""
     return (p["sleepers"] - 0.5) * p["sleeper_spacing"]
 
 
 def stations(p):
-    """x [m] of the deflection line's points: every sixth of a spacing (the seats and the mid-spans among them), 0 to
-    end_x."""
-    return [k * p["sleeper_spacing"] / 6 for k in range(6 * p["sleepers"] - 2)]
+    """x [m] of the deflection line's points: every sixth of a spacing (the seats and the mid-spans among them),
+    start_x to end_x."""
+    first = -3 if half_track(p) else 0
+    return [k * p["sleeper_spacing"] / 6 for k in range(first, 6 * p["sleepers"] - 2)]
 
 
 def fem_arguments(p):
@@ -68,7 +97,8 @@ def fem_arguments(p):
     layers = p["subgrade"] == "layers"
     return {"geo": os.path.join(os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__)))),
                                 "freefem_scripts", "examples", "track.geo"),
-            "sleepers": p["sleepers"], "spacing": p["sleeper_spacing"], "sleeperWidth": p["sleeper_width"],
+            "sleepers": p["sleepers"], "xStart": start_x(p), "spacing": p["sleeper_spacing"],
+            "sleeperWidth": p["sleeper_width"],
             "sleeperHalfLength": 0.5 * p["sleeper_length"], "sleeperHeight": p["sleeper_height"],
             "padLength": p["pad_length"], "padThickness": p["pad_thickness"], "padStiffness": p["pad_stiffness"],
             "railWidth": width, "railHeight": height, "railY": 0.5 * p["rail_gauge"],
@@ -130,6 +160,19 @@ def winkler_deflection(x, wheel_load, modulus, bending_stiffness, period=None, i
     return w
 
 
+def winkler_mirrored(x, loads, modulus, bending_stiffness, start, end):
+    """Winkler deflection [m] at x of point loads [(x_i, Q_i)] on a beam whose ends `start` and `end` are mirror planes
+    (the half track's rail ends, in the middle of a crib): each load's image through `start`, and both repeated every
+    2 (end - start) (winkler_deflection's periodic images)."""
+    period = 2.0 * (end - start)
+    x = np.asarray(x, dtype=float)
+    w = np.zeros_like(x)
+    for c, q in loads:
+        for image in (c, 2.0 * start - c):
+            w += winkler_deflection(x - image, q, modulus, bending_stiffness, period=period)
+    return w
+
+
 class TrackBed:
     """The YADE side of the track scene: materials, the base wall and the mirror walls, the ballast bed packed once
     (cached by bedcache), and the contact engines. Construct inside YADE."""
@@ -144,6 +187,7 @@ class TrackBed:
         from yade import O, utils
         from yade.wrapper import BallastMat
         self.p = p
+        self.start_x = start_x(p)
         self.end_x = end_x(p)
         self.width = 0.5 * p["sleeper_length"] + p["shoulder_width"]  # y of the shoulder's wall
         self.depth = p["ballast_depth"]
@@ -159,11 +203,18 @@ class TrackBed:
         self.sleeper = material(p["sleeper_young"], 0.2, p["sleeper_friction"], p["wall_rolling_friction"])
         self.base = material(base_young(p), p["base_poisson"], p["base_friction"], p["wall_rolling_friction"])
         self.mirror = material(p["mirror_young"], 0.2, 0.0, p["wall_rolling_friction"])
+        self.loose = None  # the loose zone's packing material (Irazábal §7.2.3), only with one
+        if loose_range(p):
+            self.loose = material(p["packing_young"], p["ballast_poisson"], p["loose_friction"], p["rolling_friction"],
+                                  p["ballast_density"])
 
         # 2. The bed, packed without friction (Irazábal §6.4.2) and cut at the sleepers' base, from the cache; its
         #    highest grain under the sleepers at z = 0 so that the track rests on it from the start.
         layers = {"subgrade": "layers"} if p["subgrade"] == "layers" else {}  # a concrete base while packing
-        key = {"procedure": PACKING_PROCEDURE, **{k: p[k] for k in self.PACKING_KEYS}, **layers}
+        # The half track and its loose zone enter the key only when set (the quarter's cached beds keep their keys).
+        half = {"x_symmetry": False} if half_track(p) else {}
+        loose = {k: p[k] for k in ("loose_zone", "loose_zone_first", "loose_friction")} if loose_range(p) else {}
+        key = {"procedure": PACKING_PROCEDURE, **{k: p[k] for k in self.PACKING_KEYS}, **layers, **half, **loose}
         cache = bedcache.path("track", key, fallback=os.path.join(out, "cache"))
         with bedcache.exclusive(cache) as found:
             if not found:
@@ -189,7 +240,8 @@ class TrackBed:
                                                             "subgrade"] == "layers" else self.base]))
         self.mirrors = [O.bodies.append(utils.wall(position=pos, axis=axis, sense=sense,
                                                    material=O.materials[self.mirror]))
-                        for axis, pos, sense in ((0, 0.0, 1), (0, self.end_x, -1), (1, 0.0, 1), (1, self.width, -1))]
+                        for axis, pos, sense in ((0, self.start_x, 1), (0, self.end_x, -1), (1, 0.0, 1),
+                                                 (1, self.width, -1))]
         self.spheres = [O.bodies.append(utils.sphere(row[:3], row[3], material=O.materials[self.ballast]))
                         for row in bed]
 
@@ -231,14 +283,18 @@ class TrackBed:
         sizes, passing, mean_volume = grading(p["size_scale"])
         floor = -self.depth
         O.bodies.append(utils.wall(position=floor, axis=2, sense=1, material=O.materials[self.mirror]))
-        for axis, pos, sense in ((0, 0.0, 1), (0, self.end_x, -1), (1, 0.0, 1), (1, self.width, -1)):
+        for axis, pos, sense in ((0, self.start_x, 1), (0, self.end_x, -1), (1, 0.0, 1), (1, self.width, -1)):
             O.bodies.append(utils.wall(position=pos, axis=axis, sense=sense, material=O.materials[self.mirror]))
         top = floor + 2.2 * self.depth + sizes[-1]  # the cloud's solid fraction 0.3 settles to about twice that
         cloud = pack.SpherePack()
-        volume = self.end_x * self.width * (top - floor)
-        cloud.makeCloud((0, 0, floor), (self.end_x, self.width, top), psdSizes=sizes, psdCumm=passing,
+        volume = (self.end_x - self.start_x) * self.width * (top - floor)
+        cloud.makeCloud((self.start_x, 0, floor), (self.end_x, self.width, top), psdSizes=sizes, psdCumm=passing,
                         distributeMass=True, num=int(CLOUD_SOLID_FRACTION * volume / mean_volume), seed=p["seed"])
-        ids = [O.bodies.append(utils.sphere(c, r, material=O.materials[self.packing])) for c, r in cloud]
+        # A loose zone (Irazábal 2017 §7.2.3: the bump packed by gravity with mu = 0.6 there, 0 elsewhere): its grains
+        # settle and are consolidated with friction loose_friction and the ballast's rolling friction.
+        zone = loose_range(p)
+        ids = [O.bodies.append(utils.sphere(c, r, material=O.materials[
+            self.loose if zone is not None and zone[0] <= c[0] < zone[1] else self.packing])) for c, r in cloud]
         # Numerical damping speeds the settling of the packing only (the coupled run has none).
         O.engines = self.engines()[:-1] + [NewtonIntegrator(damping=PACKING_DAMPING, gravity=(0, 0, -GRAVITY))]
         O.dt = p["dem_dt_safety"] * utils.PWaveTimeStep()
@@ -253,7 +309,7 @@ class TrackBed:
         start = max(O.bodies[i].state.pos[2] + O.bodies[i].shape.radius for i in ids)
         plate = O.bodies.append(utils.wall(position=start, axis=2, sense=-1, material=O.materials[self.mirror]))
         body = O.bodies[plate]
-        target = p["consolidation_pressure"] * self.end_x * self.width
+        target = p["consolidation_pressure"] * (self.end_x - self.start_x) * self.width
         chunk = 50
         for _ in range(max(1, int(COMPACTION_HOLD_S / O.dt / chunk))):
             # Lowered at up to PLATE_SPEED, slowing as the grains' force on it approaches the pressure's.

@@ -46,6 +46,22 @@ class WinklerTest(unittest.TestCase):
         self.assertLess(abs(slope_end) * period / w[0], 1e-3)
 
 
+    def test_mirrored_track_carries_its_loads(self):
+        """The half track's ends (-0.3 m, 3.9 m) as mirror planes, two wheels of 84.4 kN at 0.5 m and 3.5 m (one near
+        each end): the track carries both loads (the foundation's reaction over the track is their sum: each image of
+        a load falls in an image of the track) and the line is flat at both ends (w' = 0 by symmetry). Images beyond
+        +-6 periods of 8.4 m weigh exp(-40); the trapezoid on 2e4 intervals: tolerance 1e-6; one-sided slope over
+        h = 0.21 mm against w(0)/L: 1e-3."""
+        start, end = -0.3, 3.9
+        loads = [(0.5, 84.4e3), (3.5, 84.4e3)]
+        x = np.linspace(start, end, 20001)
+        w = track.winkler_mirrored(x, loads, MODULUS, EI, start, end)
+        self.assertAlmostEqual(np.trapz(MODULUS * w, x) / (2 * 84.4e3), 1.0, delta=1e-6)
+        h = x[1] - x[0]
+        for slope in ((w[1] - w[0]) / h, (w[-1] - w[-2]) / h):
+            self.assertLess(abs(slope) * (end - start) / np.max(w), 1e-3)
+
+
 class SeatForcesTest(unittest.TestCase):
     def test_forces_summed_per_sleeper(self):
         """Nodes on the sleepers' bases (z = 0) go to the nearest sleeper's sum; nodes on subgrade layers (z = base)

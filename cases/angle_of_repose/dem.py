@@ -56,10 +56,8 @@ else:
 
 # 2. Floor (z = 0) and hopper: a square funnel with walls at hopper_wall_angle_deg to the horizontal, narrowing to the
 #    square aperture (side hopper_aperture) at drop_height above the floor, and a vertical square bin on top of it
-#    that holds the initial lattice. The hopper's axis is the z axis. With base_radius > 0 the floor is a disc of that
-#    radius (the fixed-base test, e.g. ISO 4324): a particle lying on the floor whose centre passes the disc's edge tips
-#    over it and leaves the scene (step 5), so that spheres without rolling resistance, which would roll across an
-#    unbounded floor for ever, come to rest.
+#    that holds the initial lattice. The hopper's axis is the z axis. With base_radius > 0 the pile forms on a base of
+#    that radius (the fixed-base test, e.g. ISO 4324; step 3).
 floor = O.bodies.append(utils.wall(position=0.0, axis=2, sense=1, material=floor_mat))
 a, z0 = p["hopper_aperture"], p["drop_height"]
 slope = math.radians(p["hopper_wall_angle_deg"])
@@ -104,6 +102,19 @@ while len(centres) < count:
                 centres.append((x + rng.uniform(-jitter, jitter), y + rng.uniform(-jitter, jitter), z))
     z += spacing
 order = rng.permutation(count)  # sizes spread over the lattice, not sorted by height
+# The fixed base (base_radius > 0): a disc of fixed spheres of the mean diameter, touching on a hexagonal lattice, lying
+# on the floor, as a base with glued grains; spheres without rolling resistance roll off a flat base for ever, its first
+# layer included. What passes the base's edge falls to the floor and leaves the scene (step 5).
+base_ids, base_top = [], 0.0
+if p["base_radius"] > 0.0:
+    d_base = base_top = 2.0 * float(reaches.mean())
+    rows = int(p["base_radius"] / (0.5 * math.sqrt(3.0) * d_base)) + 1
+    for j in range(-rows, rows + 1):
+        for i in range(-rows - 1, rows + 2):
+            x, y = (i + 0.5 * (j % 2)) * d_base, j * 0.5 * math.sqrt(3.0) * d_base
+            if math.hypot(x, y) <= p["base_radius"] - 0.5 * d_base:
+                base_ids.append(O.bodies.append(utils.sphere((x, y, 0.5 * d_base), 0.5 * d_base, fixed=True,
+                                                             material=floor_mat)))
 particle_ids = []
 for k, centre in zip(order, centres):
     if shape == "sphere":
@@ -144,9 +155,11 @@ O.dt = p["dem_dt"] if shape == "sphere" else p["cluster_dt"]
 
 
 # 5. Discharge and rest: the run goes on in spans of rest_check_s until the hopper is empty and every particle moves
-#    slower than rest_speed, or for duration_s at most. Recorded every record_every_s. On a base disc (base_radius > 0)
-#    the particles lying on the floor (centre less than 1.05 radii above it) beyond the disc's edge are removed at each
-#    record; their energy then (potential + kinetic) is kept in left_energy for the energy balance.
+#    slower than rest_speed, or for duration_s at most. Recorded every record_every_s. With a fixed base (base_radius
+#    > 0) the particles that fell over its edge are removed at each record: a centre below the base's top (z < d_base)
+#    is on the floor or caught between the outermost base spheres (on the base a sphere of 3/4 of the base spheres'
+#    diameter in a hole of three of them rests with its centre 1.16 d_base high); their energy then (potential +
+#    kinetic) is kept in left_energy for the energy balance.
 def in_hopper_mass():
     return sum(O.bodies[i].state.mass for i in particle_ids if O.bodies[i].state.pos[2] > z0)
 
@@ -159,13 +172,13 @@ left_energy, left_mass = [0.0], [0.0]
 
 
 def remove_fallen():
-    """Removes the spheres that passed the base disc's edge (a no-op with an unbounded floor)."""
+    """Removes the spheres that fell over the fixed base's edge (a no-op without a base)."""
     if p["base_radius"] <= 0.0:
         return
     for i in list(particle_ids):
         b = O.bodies[i]
         s = b.state
-        if s.pos[2] < 1.05 * b.shape.radius and math.hypot(s.pos[0], s.pos[1]) > p["base_radius"]:
+        if s.pos[2] < base_top:  # on the floor or caught in the base's rim: only beyond its edge
             spin = sum(s.inertia[k] * s.angVel[k] ** 2 for k in range(3))
             left_energy[0] += s.mass * (GRAVITY * s.pos[2] + 0.5 * s.vel.squaredNorm()) + 0.5 * spin
             left_mass[0] += s.mass
@@ -173,12 +186,17 @@ def remove_fallen():
             O.bodies.erase(i)
 
 
+def floor_force():
+    """Vertical force of the particles on the floor and the fixed base."""
+    return -sum(O.forces.f(i)[2] for i in [floor] + base_ids)
+
+
 def record():
     remove_fallen()
     speeds = [O.bodies[i].state.vel.norm() for i in particle_ids]
     return {"kinetic_energy": utils.kineticEnergy(), "potential_energy": potential_energy(),
             "left_energy": left_energy[0], "left_mass": left_mass[0],
-            "hopper_mass": in_hopper_mass(), "max_speed": max(speeds), "floor_force": -O.forces.f(floor)[2],
+            "hopper_mass": in_hopper_mass(), "max_speed": max(speeds), "floor_force": floor_force(),
             "floor_impulse": floor_impulse[0]}
 
 
@@ -198,17 +216,18 @@ while O.time < p["duration_s"] - 0.5 * O.dt:
         break
 # One more rest_check_s with the floor's impulse summed every step, for its mean reaction over that window (samples of
 # a contact force rattle). Only then: a Python call per step costs several times a small scene's step.
-O.engines = O.engines + [PyRunner(iterPeriod=1, command="floor_impulse[0] -= O.forces.f(floor)[2] * O.dt")]
+O.engines = O.engines + [PyRunner(iterPeriod=1, command="floor_impulse[0] += floor_force() * O.dt")]
 dem.run(p["rest_check_s"], record, p["record_every_s"], progress)
 
 # 6. The pile: every sphere (cluster members for clusters) with its radius, for the profile fit of the post-processing.
-members = [b for b in O.bodies if isinstance(b.shape, Sphere)]
+base_set = set(base_ids)
+members = [b for b in O.bodies if isinstance(b.shape, Sphere) and b.id not in base_set]
 spheres = np.array([(b.state.pos[0], b.state.pos[1], b.state.pos[2], b.shape.radius) for b in members])
 centres_now = np.array([tuple(O.bodies[i].state.pos) for i in particle_ids])
 masses = np.array([O.bodies[i].state.mass for i in particle_ids])
 dem.save(arrays={"spheres": spheres, "particle_centres": centres_now, "particle_masses": masses},
          particles=count, spheres=len(members), ballast_mass_kg=total_mass, simulated_s=O.time, material=p["material"],
-         left_particles=count - len(particle_ids), left_mass_kg=left_mass[0],
+         left_particles=count - len(particle_ids), left_mass_kg=left_mass[0], base_spheres=len(base_ids),
          initial_energy_j=initial_energy,
          at_rest=bool(dem.last["hopper_mass"] == 0.0 and dem.last["max_speed"] < p["rest_speed"]),
          mean_diameter_m=float(2.0 * reaches.mean()) if shape == "sphere" else float(

@@ -2,10 +2,12 @@
 """Tables and plot of the angle-of-repose campaigns (campaigns/*.toml) for the case's README.
 
 Usage: /usr/bin/python3 cases/angle_of_repose/summarise.py [RESULTS]   (RESULTS: default ./results)
-Reads RESULTS/angle_of_repose-*/runs/*/rep*/summary.json (every finished run of the campaigns), writes
-cases/angle_of_repose/results/runs.csv (one row per run: the settings that differ from the case's defaults, the
+Reads RESULTS/angle_of_repose-*/runs/*/rep*/summary.json (every finished run of the campaigns). Of the ballast runs it
+writes cases/angle_of_repose/results/runs.csv (one row per run: the settings that differ from the case's defaults, the
 angle, its spread over the flanks, particles, simulated and wall time) and angle_of_repose.png (the angle against
-η_r, E, time step and amount of ballast, with the thesis' 40° ± 2°), and prints the rows as a Markdown table.
+η_r, E, time step and amount of ballast, with the thesis' 40° ± 2°); of the wheat runs (material = "wheat",
+campaigns/wheat.toml) results/wheat.csv and wheat.png (the angle against μ with the seed's points, Ullrich 2022
+sec. 5.3); each only when such runs are there. Prints the rows as Markdown tables.
 """
 import csv
 import glob
@@ -15,6 +17,11 @@ import sys
 import tomllib
 
 HERE = os.path.dirname(os.path.abspath(__file__))
+# The seed's angles of wheat as spheres without rolling resistance (Ullrich 2022 sec. 5.3, Fig. 5.2): {μ: angle [deg]},
+# the saturation it reports for large μ, and the angle of the wheat measured.
+SEED_WHEAT = {0.17: 15.0, 1.0: 22.0}
+SEED_WHEAT_SATURATION_DEG = 23.0
+WHEAT_MEASURED_DEG = 26.0
 SWEPT = ("rolling_friction", "particle_young", "dem_dt", "ballast_mass_kg", "particle_shape", "cluster_level",
          "friction_model", "cluster_dt", "drop_height")
 
@@ -22,13 +29,24 @@ SWEPT = ("rolling_friction", "particle_young", "dem_dt", "ballast_mass_kg", "par
 def main(results):
     with open(os.path.join(HERE, "case.toml"), "rb") as f:
         defaults = tomllib.load(f)["parameters"]
-    rows = []
+    rows, wheat = [], []
     for path in sorted(glob.glob(os.path.join(results, "angle_of_repose-*", "runs", "*", "rep*", "summary.json"))):
         with open(path) as f:
             summary = json.load(f)
         if summary["status"] != "ok" or summary.get("smoke"):
             continue
         p, m = summary["parameters"], summary["metrics"]
+        if p.get("material", "ballast") == "wheat":
+            wheat.append({"friction": p["friction"], "angle_deg": round(m["angle_of_repose_deg"], 2),
+                          "spread_deg": round(m["angle_spread_deg"], 2),
+                          "sector_angles_deg": " ".join(f"{a:.1f}" for a in m["sector_angles_deg"]),
+                          "pile_height_m": round(m["pile_height_m"], 4), "particles": m["particles"],
+                          "on_base": m["particles"] - m.get("left_particles", 0),
+                          "base_radius_m": p["base_radius"], "simulated_s": round(m["simulated_s"], 3),
+                          "at_rest": m["at_rest"], "energy_gain_fraction": m["energy_gain_fraction"],
+                          "floor_reaction_over_weight": round(m["floor_reaction_over_weight"], 5),
+                          "dem_steps": m["dem_steps"], "wall_time_s": round(summary["wall_time_s"], 1)})
+            continue
         changed = {k: p[k] for k in SWEPT if p.get(k) != defaults.get(k)}
         rows.append({"campaign": path.split(os.sep)[-5].replace("angle_of_repose-", ""),
                      "settings": ", ".join(f"{k}={v:g}" if isinstance(v, float) else f"{k}={v}" for k, v in changed.items())
@@ -38,6 +56,10 @@ def main(results):
                      "simulated_s": round(m["simulated_s"], 3), "dem_steps": m["dem_steps"],
                      "wall_time_s": round(summary["wall_time_s"], 1)})
     os.makedirs(os.path.join(HERE, "results"), exist_ok=True)
+    if wheat:
+        summarise_wheat(sorted(wheat, key=lambda r: r["friction"]))
+    if not rows:
+        return
     with open(os.path.join(HERE, "results", "runs.csv"), "w", newline="") as f:
         writer = csv.DictWriter(f, fieldnames=list(rows[0]))
         writer.writeheader()
@@ -48,6 +70,42 @@ def main(results):
         print(f"| {r['campaign']} | {r['settings']} | {r['angle_deg']:.1f} | {r['spread_deg']:.1f} | {r['particles']} | "
               f"{r['simulated_s']:.2f} | {r['dem_steps']} | {r['wall_time_s']:.0f} |")
     plot(rows, defaults)
+
+
+def summarise_wheat(rows):
+    """results/wheat.csv and wheat.png: the angle of the wheat piles against the grain-grain μ, with the seed's."""
+    with open(os.path.join(HERE, "results", "wheat.csv"), "w", newline="") as f:
+        writer = csv.DictWriter(f, fieldnames=list(rows[0]))
+        writer.writeheader()
+        writer.writerows(rows)
+    print("| μ | angle [deg] | flanks [deg] | the seed [deg] | grains on the base / poured | pile height [mm] | "
+          "simulated [s] | at rest | wall [s] |")
+    print("|---|---|---|---|---|---|---|---|---|")
+    for r in rows:
+        seed = SEED_WHEAT.get(r["friction"])
+        print(f"| {r['friction']:g} | {r['angle_deg']:.1f} ± {r['spread_deg']:.1f} | {r['sector_angles_deg']} | "
+              f"{'–' if seed is None else f'{seed:g}'} | {r['on_base']} / {r['particles']} | "
+              f"{r['pile_height_m'] * 1e3:.1f} | {r['simulated_s']:.2f} | {'yes' if r['at_rest'] else 'no'} | "
+              f"{r['wall_time_s']:.0f} |")
+    import math
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    fig, ax = plt.subplots(figsize=(6.4, 4))
+    ax.errorbar([r["friction"] for r in rows], [r["angle_deg"] for r in rows], yerr=[r["spread_deg"] for r in rows],
+                fmt="o-", capsize=3, label="here: spheres 3-5 mm, fixed base (bars: spread over the flanks)")
+    ax.plot(list(SEED_WHEAT), list(SEED_WHEAT.values()), "s", color="C3", ms=8, label="the seed (Ullrich 2022 Fig. 5.2)")
+    ax.axhline(SEED_WHEAT_SATURATION_DEG, color="C3", ls=":", lw=1, label="the seed's saturation, ≈ 23°")
+    ax.axhline(WHEAT_MEASURED_DEG, color="k", ls="--", lw=1, label="wheat, measured: 26°")
+    mu = [0.1 + 0.01 * k for k in range(141)]
+    ax.plot(mu, [math.degrees(math.atan(m)) for m in mu], color="0.6", lw=0.8, label="tan θ = μ (Eq. 2.25)")
+    ax.set_xlabel("grain-grain friction μ")
+    ax.set_ylabel("angle of repose [deg]")
+    ax.set_ylim(0, 45)
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize=7)
+    fig.tight_layout()
+    fig.savefig(os.path.join(HERE, "results", "wheat.png"), dpi=110)
 
 
 def scaled_step(row, defaults):

@@ -89,7 +89,9 @@ class AngleOfRepose(Case):
     def postprocess(self, p, out):
         dem = results.read_json(os.path.join(out, "dem_info.json"))
         series = results.read_dem_series(out)
-        spheres = series["spheres"]
+        spheres = np.array(series["spheres"], dtype=float)
+        # Heights above the fixed base's top: its spheres have the mean diameter (dem.py); without a base, the floor's.
+        spheres[:, 2] -= dem["mean_diameter_m"] if p["base_radius"] > 0.0 else 0.0
         measured = repose_angle(spheres, p["profile_sectors"], p["profile_bin_diameters"] * dem["mean_diameter_m"],
                                 p["profile_lower_fraction"], p["profile_upper_fraction"])
         angle, reference = measured["angle_deg"], p["reference_angle_deg"]

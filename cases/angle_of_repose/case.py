@@ -77,6 +77,15 @@ def plot_pile(path, title, measured, reference_deg, reference_label="thesis"):
     plt.close(fig)
 
 
+def measure_pile(spheres, dem, p):
+    """repose_angle of a run's final spheres with its parameters p and dem_info.json dem, heights counted from the fixed
+    base's top (its spheres have the mean diameter, dem.py), without a base from the floor."""
+    spheres = np.array(spheres, dtype=float)
+    spheres[:, 2] -= dem["mean_diameter_m"] if p["base_radius"] > 0.0 else 0.0
+    return repose_angle(spheres, p["profile_sectors"], p["profile_bin_diameters"] * dem["mean_diameter_m"],
+                        p["profile_lower_fraction"], p["profile_upper_fraction"])
+
+
 class AngleOfRepose(Case):
     def check_parameters(self, p):
         problems = []
@@ -89,11 +98,7 @@ class AngleOfRepose(Case):
     def postprocess(self, p, out):
         dem = results.read_json(os.path.join(out, "dem_info.json"))
         series = results.read_dem_series(out)
-        spheres = np.array(series["spheres"], dtype=float)
-        # Heights above the fixed base's top: its spheres have the mean diameter (dem.py); without a base, the floor's.
-        spheres[:, 2] -= dem["mean_diameter_m"] if p["base_radius"] > 0.0 else 0.0
-        measured = repose_angle(spheres, p["profile_sectors"], p["profile_bin_diameters"] * dem["mean_diameter_m"],
-                                p["profile_lower_fraction"], p["profile_upper_fraction"])
+        measured = measure_pile(series["spheres"], dem, p)
         angle, reference = measured["angle_deg"], p["reference_angle_deg"]
         # On a base disc what passed its edge has left the scene: the floor carries the rest.
         weight = (dem["ballast_mass_kg"] - dem.get("left_mass_kg", 0.0)) * GRAVITY
@@ -149,6 +154,9 @@ class AngleOfRepose(Case):
         return {
             "metrics": {"angle_of_repose_deg": angle, "angle_spread_deg": float(np.std(measured["sector_angles_deg"])),
                         "sector_angles_deg": measured["sector_angles_deg"], "pile_height_m": measured["height_m"],
+                        # the fixed-base (ISO 4324) angle: the pile's height over the base's radius (compared, not checked)
+                        "base_cone_angle_deg": (math.degrees(math.atan(measured["height_m"] / p["base_radius"]))
+                                                if p["base_radius"] > 0.0 else None),
                         "particles": dem["particles"], "spheres": dem["spheres"], "ballast_mass_kg": dem["ballast_mass_kg"],
                         "left_particles": dem.get("left_particles", 0), "left_mass_kg": dem.get("left_mass_kg", 0.0),
                         "simulated_s": dem["simulated_s"], "dem_steps": dem["steps"], "dem_wall_time_s": dem["wall_time_s"],

@@ -14,9 +14,16 @@ import glob
 import json
 import os
 import sys
+import math
 import tomllib
 
+import numpy as np
+
 HERE = os.path.dirname(os.path.abspath(__file__))
+sys.path.insert(0, os.path.join(HERE, "..", "..", "python"))
+sys.path.insert(0, HERE)
+import case  # noqa: E402  (this case's case.py: the angle measurement)
+from railcosim import results as run_files  # noqa: E402
 # The seed's angles of wheat as spheres without rolling resistance (Ullrich 2022 sec. 5.3, Fig. 5.2): {μ: angle [deg]},
 # the saturation it reports for large μ, and the angle of the wheat measured.
 SEED_WHEAT = {0.17: 15.0, 1.0: 22.0}
@@ -37,10 +44,16 @@ def main(results):
             continue
         p, m = summary["parameters"], summary["metrics"]
         if p.get("material", "ballast") == "wheat":
-            wheat.append({"friction": p["friction"], "angle_deg": round(m["angle_of_repose_deg"], 2),
-                          "spread_deg": round(m["angle_spread_deg"], 2),
-                          "sector_angles_deg": " ".join(f"{a:.1f}" for a in m["sector_angles_deg"]),
-                          "pile_height_m": round(m["pile_height_m"], 4), "particles": m["particles"],
+            # measured again from the run's final spheres with the case's present measurement (case.measure_pile)
+            folder = os.path.dirname(path)
+            measured = case.measure_pile(run_files.read_dem_series(folder)["spheres"],
+                                         run_files.read_json(os.path.join(folder, "dem_info.json")), p)
+            height = measured["height_m"]
+            wheat.append({"friction": p["friction"], "angle_deg": round(measured["angle_deg"], 2),
+                          "spread_deg": round(float(np.std(measured["sector_angles_deg"])), 2),
+                          "sector_angles_deg": " ".join(f"{a:.1f}" for a in measured["sector_angles_deg"]),
+                          "base_cone_angle_deg": round(math.degrees(math.atan(height / p["base_radius"])), 2),
+                          "pile_height_m": round(height, 4), "particles": m["particles"],
                           "on_base": m["particles"] - m.get("left_particles", 0),
                           "base_radius_m": p["base_radius"], "simulated_s": round(m["simulated_s"], 3),
                           "at_rest": m["at_rest"], "energy_gain_fraction": m["energy_gain_fraction"],
@@ -78,13 +91,13 @@ def summarise_wheat(rows):
         writer = csv.DictWriter(f, fieldnames=list(rows[0]))
         writer.writeheader()
         writer.writerows(rows)
-    print("| μ | angle [deg] | flanks [deg] | the seed [deg] | grains on the base / poured | pile height [mm] | "
-          "simulated [s] | at rest | wall [s] |")
-    print("|---|---|---|---|---|---|---|---|---|")
+    print("| μ | angle [deg] | flanks [deg] | height / base radius [deg] | the seed [deg] | grains on the base / poured | "
+          "pile height [mm] | simulated [s] | at rest | wall [s] |")
+    print("|---|---|---|---|---|---|---|---|---|---|")
     for r in rows:
         seed = SEED_WHEAT.get(r["friction"])
         print(f"| {r['friction']:g} | {r['angle_deg']:.1f} ± {r['spread_deg']:.1f} | {r['sector_angles_deg']} | "
-              f"{'–' if seed is None else f'{seed:g}'} | {r['on_base']} / {r['particles']} | "
+              f"{r['base_cone_angle_deg']:.1f} | {'–' if seed is None else f'{seed:g}'} | {r['on_base']} / {r['particles']} | "
               f"{r['pile_height_m'] * 1e3:.1f} | {r['simulated_s']:.2f} | {'yes' if r['at_rest'] else 'no'} | "
               f"{r['wall_time_s']:.0f} |")
     import math
@@ -93,7 +106,9 @@ def summarise_wheat(rows):
     import matplotlib.pyplot as plt
     fig, ax = plt.subplots(figsize=(6.4, 4))
     ax.errorbar([r["friction"] for r in rows], [r["angle_deg"] for r in rows], yerr=[r["spread_deg"] for r in rows],
-                fmt="o-", capsize=3, label="here: spheres 3-5 mm, fixed base (bars: spread over the flanks)")
+                fmt="o-", capsize=3, label="here: the flanks' line fits (bars: spread over the four)")
+    ax.plot([r["friction"] for r in rows], [r["base_cone_angle_deg"] for r in rows], "^--", color="C2",
+            label="here: atan(pile height / base radius)")
     ax.plot(list(SEED_WHEAT), list(SEED_WHEAT.values()), "s", color="C3", ms=8, label="the seed (Ullrich 2022 Fig. 5.2)")
     ax.axhline(SEED_WHEAT_SATURATION_DEG, color="C3", ls=":", lw=1, label="the seed's saturation, ≈ 23°")
     ax.axhline(WHEAT_MEASURED_DEG, color="k", ls="--", lw=1, label="wheat, measured: 26°")

@@ -70,7 +70,7 @@ def main(results):
                      "wall_time_s": round(summary["wall_time_s"], 1)})
     os.makedirs(os.path.join(HERE, "results"), exist_ok=True)
     if wheat:
-        summarise_wheat(sorted(wheat, key=lambda r: r["friction"]))
+        summarise_wheat(sorted(wheat, key=lambda r: (-r["base_radius_m"], r["friction"])))
     if not rows:
         return
     with open(os.path.join(HERE, "results", "runs.csv"), "w", newline="") as f:
@@ -91,12 +91,13 @@ def summarise_wheat(rows):
         writer = csv.DictWriter(f, fieldnames=list(rows[0]))
         writer.writeheader()
         writer.writerows(rows)
-    print("| μ | angle [deg] | flanks [deg] | height / base radius [deg] | the seed [deg] | grains on the base / poured | "
-          "pile height [mm] | simulated [s] | at rest | wall [s] |")
-    print("|---|---|---|---|---|---|---|---|---|---|")
+    print("| base radius [mm] | μ | angle [deg] | flanks [deg] | height / base radius [deg] | the seed [deg] | "
+          "grains on the base / poured | pile height [mm] | simulated [s] | at rest | wall [s] |")
+    print("|---|---|---|---|---|---|---|---|---|---|---|")
     for r in rows:
         seed = SEED_WHEAT.get(r["friction"])
-        print(f"| {r['friction']:g} | {r['angle_deg']:.1f} ± {r['spread_deg']:.1f} | {r['sector_angles_deg']} | "
+        print(f"| {r['base_radius_m'] * 1e3:g} | {r['friction']:g} | {r['angle_deg']:.1f} ± {r['spread_deg']:.1f} | "
+              f"{r['sector_angles_deg']} | "
               f"{r['base_cone_angle_deg']:.1f} | {'–' if seed is None else f'{seed:g}'} | {r['on_base']} / {r['particles']} | "
               f"{r['pile_height_m'] * 1e3:.1f} | {r['simulated_s']:.2f} | {'yes' if r['at_rest'] else 'no'} | "
               f"{r['wall_time_s']:.0f} |")
@@ -105,10 +106,14 @@ def summarise_wheat(rows):
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
     fig, ax = plt.subplots(figsize=(6.4, 4))
-    ax.errorbar([r["friction"] for r in rows], [r["angle_deg"] for r in rows], yerr=[r["spread_deg"] for r in rows],
-                fmt="o-", capsize=3, label="here: the flanks' line fits (bars: spread over the four)")
-    ax.plot([r["friction"] for r in rows], [r["base_cone_angle_deg"] for r in rows], "^--", color="C2",
-            label="here: atan(pile height / base radius)")
+    for k, radius in enumerate(sorted({r["base_radius_m"] for r in rows}, reverse=True)):
+        mine = [r for r in rows if r["base_radius_m"] == radius]
+        size = f"base {radius * 1e3:g} mm"
+        ax.errorbar([r["friction"] for r in mine], [r["angle_deg"] for r in mine], yerr=[r["spread_deg"] for r in mine],
+                    fmt="o-" if k == 0 else "D", color="C0" if k == 0 else "C1", capsize=3,
+                    label=f"here, {size}: the flanks' line fits (bars: spread over the four)")
+        ax.plot([r["friction"] for r in mine], [r["base_cone_angle_deg"] for r in mine], "^--" if k == 0 else "v",
+                color="C2" if k == 0 else "C4", label=f"here, {size}: atan(pile height / base radius)")
     ax.plot(list(SEED_WHEAT), list(SEED_WHEAT.values()), "s", color="C3", ms=8, label="the seed (Ullrich 2022 Fig. 5.2)")
     ax.axhline(SEED_WHEAT_SATURATION_DEG, color="C3", ls=":", lw=1, label="the seed's saturation, ≈ 23°")
     ax.axhline(WHEAT_MEASURED_DEG, color="k", ls="--", lw=1, label="wheat, measured: 26°")

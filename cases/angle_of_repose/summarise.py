@@ -105,15 +105,17 @@ def summarise_wheat(rows):
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
-    fig, ax = plt.subplots(figsize=(6.4, 4))
-    for k, radius in enumerate(sorted({r["base_radius_m"] for r in rows}, reverse=True)):
+    fig, ax = plt.subplots(figsize=(10, 4.2))
+    # the sweep (the base radius with most runs) as lines, the size check's other bases as single markers
+    radii = sorted({r["base_radius_m"] for r in rows}, key=lambda b: -sum(r["base_radius_m"] == b for r in rows))
+    for k, radius in enumerate(radii):
         mine = [r for r in rows if r["base_radius_m"] == radius]
         size = f"base {radius * 1e3:g} mm"
         ax.errorbar([r["friction"] for r in mine], [r["angle_deg"] for r in mine], yerr=[r["spread_deg"] for r in mine],
-                    fmt="o-" if k == 0 else "D", color="C0" if k == 0 else "C1", capsize=3,
+                    fmt="o-" if k == 0 else "os"[k % 2], color="C0" if k == 0 else f"C{4 + k}", capsize=3, mfc=None if k == 0 else "none",
                     label=f"here, {size}: the flanks' line fits (bars: spread over the four)")
-        ax.plot([r["friction"] for r in mine], [r["base_cone_angle_deg"] for r in mine], "^--" if k == 0 else "v",
-                color="C2" if k == 0 else "C4", label=f"here, {size}: atan(pile height / base radius)")
+        ax.plot([r["friction"] for r in mine], [r["base_cone_angle_deg"] for r in mine], "^--" if k == 0 else "^",
+                color="C2" if k == 0 else f"C{4 + k}", label=f"here, {size}: atan(pile height / base radius)")
     ax.plot(list(SEED_WHEAT), list(SEED_WHEAT.values()), "s", color="C3", ms=8, label="the seed (Ullrich 2022 Fig. 5.2)")
     ax.axhline(SEED_WHEAT_SATURATION_DEG, color="C3", ls=":", lw=1, label="the seed's saturation, ≈ 23°")
     ax.axhline(WHEAT_MEASURED_DEG, color="k", ls="--", lw=1, label="wheat, measured: 26°")
@@ -123,7 +125,7 @@ def summarise_wheat(rows):
     ax.set_ylabel("angle of repose [deg]")
     ax.set_ylim(0, 45)
     ax.grid(alpha=0.3)
-    ax.legend(fontsize=7)
+    ax.legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.01, 1.0))
     fig.tight_layout()
     fig.savefig(os.path.join(HERE, "results", "wheat.png"), dpi=110)
 

@@ -1,4 +1,5 @@
-"""Angle of repose of ballast: the pile's surface fitted on every flank, against the thesis' 40° (see README.md)."""
+"""Angle of repose of ballast (or wheat): the pile's surface fitted on every flank, against a reference angle (the
+thesis' 40° for ballast; see README.md)."""
 import math
 import os
 
@@ -51,7 +52,7 @@ def repose_angle(spheres, sectors, bin_width, lower, upper):
             "profiles": profiles, "fits": fits}
 
 
-def plot_pile(path, title, measured, reference_deg):
+def plot_pile(path, title, measured, reference_deg, reference_label="thesis"):
     """The sectors' surface profiles, the points of each fit and its line, and the reference slope through the apex."""
     import matplotlib
     matplotlib.use("Agg")
@@ -64,7 +65,7 @@ def plot_pile(path, title, measured, reference_deg):
         ax.plot(line, slope * line + intercept, "-", color="C1", lw=1, label="fits, one per sector" if k == 0 else None)
     apex = measured["height_m"]
     run = apex / math.tan(math.radians(reference_deg))
-    ax.plot([0, run], [apex, 0], "k--", lw=1, label=f"{reference_deg:g}° (thesis)")
+    ax.plot([0, run], [apex, 0], "k--", lw=1, label=f"{reference_deg:g}° ({reference_label})")
     ax.set_xlabel("distance from the hopper axis [m]")
     ax.set_ylabel("height [m]")
     ax.set_title(f"{title}: {measured['angle_deg']:.1f}°")
@@ -76,15 +77,31 @@ def plot_pile(path, title, measured, reference_deg):
     plt.close(fig)
 
 
+def measure_pile(spheres, dem, p):
+    """repose_angle of a run's final spheres with its parameters p and dem_info.json dem, heights counted from the fixed
+    base's top (its spheres have the mean diameter, dem.py), without a base from the floor."""
+    spheres = np.array(spheres, dtype=float)
+    spheres[:, 2] -= dem["mean_diameter_m"] if p["base_radius"] > 0.0 else 0.0
+    return repose_angle(spheres, p["profile_sectors"], p["profile_bin_diameters"] * dem["mean_diameter_m"],
+                        p["profile_lower_fraction"], p["profile_upper_fraction"])
+
+
 class AngleOfRepose(Case):
+    def check_parameters(self, p):
+        problems = []
+        if p["material"] == "wheat" and p["particle_shape"] != "sphere":
+            problems.append("material = \"wheat\" is spheres only (particle_shape = \"sphere\")")
+        if p["base_radius"] > 0.0 and p["particle_shape"] != "sphere":
+            problems.append("base_radius > 0 removes spheres only (particle_shape = \"sphere\")")
+        return problems
+
     def postprocess(self, p, out):
         dem = results.read_json(os.path.join(out, "dem_info.json"))
         series = results.read_dem_series(out)
-        spheres = series["spheres"]
-        measured = repose_angle(spheres, p["profile_sectors"], p["profile_bin_diameters"] * dem["mean_diameter_m"],
-                                p["profile_lower_fraction"], p["profile_upper_fraction"])
+        measured = measure_pile(series["spheres"], dem, p)
         angle, reference = measured["angle_deg"], p["reference_angle_deg"]
-        weight = dem["ballast_mass_kg"] * GRAVITY
+        # On a base disc what passed its edge has left the scene: the floor carries the rest.
+        weight = (dem["ballast_mass_kg"] - dem.get("left_mass_kg", 0.0)) * GRAVITY
         # Oracles independent of the angle. (1) Once the hopper is empty the floor carries the whole weight (nothing
         # else holds the ballast): its mean reaction over the run's last rest_check_s, from the impulse summed every step,
         # differs from the weight only by the ballast's change of vertical momentum (a few stones still rolling).
@@ -96,14 +113,16 @@ class AngleOfRepose(Case):
         floor_mean = float(impulse[-1] - impulse[start]) / float(time[-1] - time[start])
         floor_error = abs(floor_mean - weight) / weight
         hopper_fraction = float(series["hopper_mass"][-1]) / dem["ballast_mass_kg"]
-        energy = series["kinetic_energy"] + series["potential_energy"]
+        energy = series["kinetic_energy"] + series["potential_energy"] + series.get("left_energy", 0.0)
         released = dem["initial_energy_j"] - float(energy[-1])
         energy_gain = (max(0.0, float(energy.max()) - dem["initial_energy_j"]) / released
                        if np.all(np.isfinite(energy)) else math.inf)  # a run that blew up
-        label = ("spheres, η_r = %g" % p["rolling_friction"] if p["particle_shape"] == "sphere" else
+        label = ("wheat, μ = %g" % p["friction"] if p["material"] == "wheat" else
+                 "spheres, η_r = %g" % p["rolling_friction"] if p["particle_shape"] == "sphere" else
                  f"{p['cluster_level']} clusters" + (f", SDF γ = {p['friction_exponent']:g}"
                                                 if p["friction_model"] == "stress_dependent" else ""))
-        plot_pile(os.path.join(out, "pile_profile.png"), f"Angle of repose, {label}", measured, reference)
+        plot_pile(os.path.join(out, "pile_profile.png"), f"Angle of repose, {label}", measured, reference,
+                  "measured" if p["material"] == "wheat" else "thesis")
         results.plot_history(os.path.join(out, "discharge.png"), title=f"Hopper discharge, {label}", panels=[
             {"x": series["time"], "y": series["hopper_mass"], "label": "ballast above the aperture",
              "ylabel": "mass [kg]", "lines": []},
@@ -135,7 +154,11 @@ class AngleOfRepose(Case):
         return {
             "metrics": {"angle_of_repose_deg": angle, "angle_spread_deg": float(np.std(measured["sector_angles_deg"])),
                         "sector_angles_deg": measured["sector_angles_deg"], "pile_height_m": measured["height_m"],
+                        # the fixed-base (ISO 4324) angle: the pile's height over the base's radius (compared, not checked)
+                        "base_cone_angle_deg": (math.degrees(math.atan(measured["height_m"] / p["base_radius"]))
+                                                if p["base_radius"] > 0.0 else None),
                         "particles": dem["particles"], "spheres": dem["spheres"], "ballast_mass_kg": dem["ballast_mass_kg"],
+                        "left_particles": dem.get("left_particles", 0), "left_mass_kg": dem.get("left_mass_kg", 0.0),
                         "simulated_s": dem["simulated_s"], "dem_steps": dem["steps"], "dem_wall_time_s": dem["wall_time_s"],
                         "floor_reaction_over_weight": floor_mean / weight, "energy_gain_fraction": energy_gain,
                         "at_rest": dem["at_rest"]},

@@ -1,17 +1,21 @@
 # DEM run of the angle-of-repose case: ballast (spheres with bounded rolling friction, or sphere clusters of the shape
-# library) discharged from a hopper onto a floor, left to come to rest. Run by `railcosim run` as:
+# library), or wheat (spheres without rolling resistance, the steel_sheet case's grain), discharged from a hopper onto a
+# floor, left to come to rest. Run by `railcosim run` as:
 # railcosim yade dem.py PARAMETERS.json ENDPOINT OUTDIR (DEM-only case: the endpoint is not used)
 import math
 import os
 import sys
 
+import tomllib
+
 import numpy as np
 
-from railcosim.dem import StandaloneDem
+from railcosim.dem import StandaloneDem, hertz_mindlin_contacts
 
 dem = StandaloneDem()  # the run's parameters and results folder, from `railcosim run`
 p = dem.parameters
 shape = p["particle_shape"]
+wheat = p["material"] == "wheat"
 GRAVITY = 9.81
 sys.path.insert(0, os.path.join(os.environ["RAILCOSIM_ROOT"], "yade_engines", "clusters"))
 import ballast_clusters  # noqa: E402
@@ -24,22 +28,36 @@ rng = np.random.default_rng(p["seed"])
 #    value (§6.4: a stone lying with a face on a rigid wall cannot roll), the pair using the larger of the two.
 #    Clusters roll on their shape alone (no rolling friction); between members of different clusters the friction
 #    may depend on the contact stress (friction_model = "stress_dependent", Table 6.5).
-common = dict(young=p["particle_young"], poisson=p["particle_poisson"], density=p["particle_density"],
-              restitution=p["restitution"])
-sdf = shape == "cluster" and p["friction_model"] == "stress_dependent"
-ballast = O.materials.append(BallastMat(frictionAngle=math.atan(p["friction"]),
-                                        rollingFriction=p["rolling_friction"] if shape == "sphere" else 0.0,
-                                        frictionExponent=p["friction_exponent"] if sdf else 0.0,
-                                        maxContactStress=p["max_contact_stress"] if sdf else 0.0,
-                                        label="ballast", **common))
-floor_mat = O.materials.append(BallastMat(frictionAngle=math.atan(p["floor_friction"]),
-                                          rollingFriction=p["floor_rolling_friction"] if shape == "sphere" else 0.0,
-                                          label="floor", **common))
-hopper_mat = O.materials.append(BallastMat(frictionAngle=0.0, rollingFriction=0.0, label="hopper", **common))
+if wheat:
+    # Wheat (Ullrich 2022 Tables 5.1, 5.2): the steel_sheet case's grain (its case.toml: ρ, E, ν, e), Hertz-Mindlin
+    # with the restitution's viscous damping and Coulomb friction, no rolling resistance (the seed's calibration of μ
+    # to the angle of repose), the same contact law as that case (railcosim.dem.hertz_mindlin_contacts).
+    with open(os.path.join(os.environ["RAILCOSIM_ROOT"], "cases", "steel_sheet", "case.toml"), "rb") as f:
+        grain = tomllib.load(f)["parameters"]
+    density, restitution = grain["grain_density"], grain["restitution"]
+    wheat_mat = dict(young=grain["grain_young"], poisson=grain["grain_poisson"], density=density)
+    ballast = O.materials.append(FrictMat(frictionAngle=math.atan(p["friction"]), label="wheat", **wheat_mat))
+    floor_mat = O.materials.append(FrictMat(frictionAngle=math.atan(p["floor_friction"]), label="floor", **wheat_mat))
+    hopper_mat = O.materials.append(FrictMat(frictionAngle=0.0, label="hopper", **wheat_mat))
+else:
+    density = p["particle_density"]
+    common = dict(young=p["particle_young"], poisson=p["particle_poisson"], density=p["particle_density"],
+                  restitution=p["restitution"])
+    sdf = shape == "cluster" and p["friction_model"] == "stress_dependent"
+    ballast = O.materials.append(BallastMat(frictionAngle=math.atan(p["friction"]),
+                                            rollingFriction=p["rolling_friction"] if shape == "sphere" else 0.0,
+                                            frictionExponent=p["friction_exponent"] if sdf else 0.0,
+                                            maxContactStress=p["max_contact_stress"] if sdf else 0.0,
+                                            label="ballast", **common))
+    floor_mat = O.materials.append(BallastMat(frictionAngle=math.atan(p["floor_friction"]),
+                                              rollingFriction=p["floor_rolling_friction"] if shape == "sphere" else 0.0,
+                                              label="floor", **common))
+    hopper_mat = O.materials.append(BallastMat(frictionAngle=0.0, rollingFriction=0.0, label="hopper", **common))
 
 # 2. Floor (z = 0) and hopper: a square funnel with walls at hopper_wall_angle_deg to the horizontal, narrowing to the
 #    square aperture (side hopper_aperture) at drop_height above the floor, and a vertical square bin on top of it
-#    that holds the initial lattice. The hopper's axis is the z axis.
+#    that holds the initial lattice. The hopper's axis is the z axis. With base_radius > 0 the pile forms on a base of
+#    that radius (the fixed-base test, e.g. ISO 4324; step 3).
 floor = O.bodies.append(utils.wall(position=0.0, axis=2, sense=1, material=floor_mat))
 a, z0 = p["hopper_aperture"], p["drop_height"]
 slope = math.radians(p["hopper_wall_angle_deg"])
@@ -56,12 +74,14 @@ def funnel_half_width(z):
 #    sphere diameter = sieve size; clusters of the shape library ("coarse" 7-16 or "fine" 29-45 spheres, §5.3.4) at
 #    their sieve size, randomly turned. They start at rest on a jittered lattice filling the hopper from the aperture
 #    up, and flow out as soon as the run starts (no gate: the thesis' hopper holds no stored material either).
+#    Wheat: diameters uniform in [grain_diameter_min, grain_diameter_max] (Ullrich 2022 Table 5.1: 3-5 mm).
 if shape == "sphere":
     diameters, mass = [], 0.0
     while mass < p["ballast_mass_kg"]:
-        d = 1e-3 * ballast_clusters.sampleSieveSizes(rng, 1)[0]
+        d = (rng.uniform(p["grain_diameter_min"], p["grain_diameter_max"]) if wheat else
+             1e-3 * ballast_clusters.sampleSieveSizes(rng, 1)[0])
         diameters.append(d)
-        mass += p["particle_density"] * math.pi / 6.0 * d ** 3
+        mass += density * math.pi / 6.0 * d ** 3
     reaches = 0.5 * np.array(diameters)
 else:
     library = ballast_clusters.loadShapeLibrary()
@@ -82,6 +102,19 @@ while len(centres) < count:
                 centres.append((x + rng.uniform(-jitter, jitter), y + rng.uniform(-jitter, jitter), z))
     z += spacing
 order = rng.permutation(count)  # sizes spread over the lattice, not sorted by height
+# The fixed base (base_radius > 0): a disc of fixed spheres of the mean diameter, touching on a hexagonal lattice, lying
+# on the floor, as a base with glued grains; spheres without rolling resistance roll off a flat base for ever, its first
+# layer included. What passes the base's edge falls to the floor and leaves the scene (step 5).
+base_ids, base_top = [], 0.0
+if p["base_radius"] > 0.0:
+    d_base = base_top = 2.0 * float(reaches.mean())
+    rows = int(p["base_radius"] / (0.5 * math.sqrt(3.0) * d_base)) + 1
+    for j in range(-rows, rows + 1):
+        for i in range(-rows - 1, rows + 2):
+            x, y = (i + 0.5 * (j % 2)) * d_base, j * 0.5 * math.sqrt(3.0) * d_base
+            if math.hypot(x, y) <= p["base_radius"] - 0.5 * d_base:
+                base_ids.append(O.bodies.append(utils.sphere((x, y, 0.5 * d_base), 0.5 * d_base, fixed=True,
+                                                             material=floor_mat)))
 particle_ids = []
 for k, centre in zip(order, centres):
     if shape == "sphere":
@@ -108,12 +141,13 @@ print(f"{count} {shape}s ({spheres_per_particle:.1f} spheres each), {total_mass:
 # 4. Engines: the ballast contact law (Hertz-Mindlin with the restitution's viscous damping, Coulomb or stress-dependent
 #    friction, docs/contact-models.md); bounded rolling friction on spheres (after the contact loop, before an
 #    integrator without numerical damping); clusters rotate by the Zhao-van Wachem quaternion scheme (thesis §5.3).
-O.engines = [
+#    Wheat: Hertz-Mindlin without rolling resistance (the steel_sheet case's contacts).
+O.engines = (hertz_mindlin_contacts(restitution, walls=True) if wheat else [
     ForceResetter(),
     InsertionSortCollider([Bo1_Sphere_Aabb(), Bo1_Facet_Aabb(), Bo1_Wall_Aabb()]),
     InteractionLoop([Ig2_Sphere_Sphere_ScGeom(), Ig2_Facet_Sphere_ScGeom(), Ig2_Wall_Sphere_ScGeom()],
                     [Ip2_BallastMat_BallastMat_BallastPhys()], [Law2_ScGeom_BallastPhys_Ballast()]),
-] + ([BoundedRollingFrictionEngine()] if shape == "sphere" else []) + [
+]) + ([BoundedRollingFrictionEngine()] if shape == "sphere" and not wheat else []) + [
     NewtonIntegrator(damping=0.0, gravity=(0, 0, -GRAVITY)) if shape == "sphere" else
     QuaternionIntegrator(scheme="zhaoVanWachem", damping=0.0, gravity=(0, 0, -GRAVITY)),
 ]
@@ -121,7 +155,11 @@ O.dt = p["dem_dt"] if shape == "sphere" else p["cluster_dt"]
 
 
 # 5. Discharge and rest: the run goes on in spans of rest_check_s until the hopper is empty and every particle moves
-#    slower than rest_speed, or for duration_s at most. Recorded every record_every_s.
+#    slower than rest_speed, or for duration_s at most. Recorded every record_every_s. With a fixed base (base_radius
+#    > 0) the particles that fell over its edge are removed at each record: a centre below the base's top (z < d_base)
+#    is on the floor or caught between the outermost base spheres (on the base a sphere of 3/4 of the base spheres'
+#    diameter in a hole of three of them rests with its centre 1.16 d_base high); their energy then (potential +
+#    kinetic) is kept in left_energy for the energy balance.
 def in_hopper_mass():
     return sum(O.bodies[i].state.mass for i in particle_ids if O.bodies[i].state.pos[2] > z0)
 
@@ -130,10 +168,35 @@ def potential_energy():
     return GRAVITY * sum(O.bodies[i].state.mass * O.bodies[i].state.pos[2] for i in particle_ids)
 
 
+left_energy, left_mass = [0.0], [0.0]
+
+
+def remove_fallen():
+    """Removes the spheres that fell over the fixed base's edge (a no-op without a base)."""
+    if p["base_radius"] <= 0.0:
+        return
+    for i in list(particle_ids):
+        b = O.bodies[i]
+        s = b.state
+        if s.pos[2] < base_top:  # on the floor or caught in the base's rim: only beyond its edge
+            spin = sum(s.inertia[k] * s.angVel[k] ** 2 for k in range(3))
+            left_energy[0] += s.mass * (GRAVITY * s.pos[2] + 0.5 * s.vel.squaredNorm()) + 0.5 * spin
+            left_mass[0] += s.mass
+            particle_ids.remove(i)
+            O.bodies.erase(i)
+
+
+def floor_force():
+    """Vertical force of the particles on the floor and the fixed base."""
+    return -sum(O.forces.f(i)[2] for i in [floor] + base_ids)
+
+
 def record():
+    remove_fallen()
     speeds = [O.bodies[i].state.vel.norm() for i in particle_ids]
     return {"kinetic_energy": utils.kineticEnergy(), "potential_energy": potential_energy(),
-            "hopper_mass": in_hopper_mass(), "max_speed": max(speeds), "floor_force": -O.forces.f(floor)[2],
+            "left_energy": left_energy[0], "left_mass": left_mass[0],
+            "hopper_mass": in_hopper_mass(), "max_speed": max(speeds), "floor_force": floor_force(),
             "floor_impulse": floor_impulse[0]}
 
 
@@ -153,16 +216,18 @@ while O.time < p["duration_s"] - 0.5 * O.dt:
         break
 # One more rest_check_s with the floor's impulse summed every step, for its mean reaction over that window (samples of
 # a contact force rattle). Only then: a Python call per step costs several times a small scene's step.
-O.engines = O.engines + [PyRunner(iterPeriod=1, command="floor_impulse[0] -= O.forces.f(floor)[2] * O.dt")]
+O.engines = O.engines + [PyRunner(iterPeriod=1, command="floor_impulse[0] += floor_force() * O.dt")]
 dem.run(p["rest_check_s"], record, p["record_every_s"], progress)
 
 # 6. The pile: every sphere (cluster members for clusters) with its radius, for the profile fit of the post-processing.
-members = [b for b in O.bodies if isinstance(b.shape, Sphere)]
+base_set = set(base_ids)
+members = [b for b in O.bodies if isinstance(b.shape, Sphere) and b.id not in base_set]
 spheres = np.array([(b.state.pos[0], b.state.pos[1], b.state.pos[2], b.shape.radius) for b in members])
 centres_now = np.array([tuple(O.bodies[i].state.pos) for i in particle_ids])
 masses = np.array([O.bodies[i].state.mass for i in particle_ids])
 dem.save(arrays={"spheres": spheres, "particle_centres": centres_now, "particle_masses": masses},
-         particles=count, spheres=len(members), ballast_mass_kg=total_mass, simulated_s=O.time,
+         particles=count, spheres=len(members), ballast_mass_kg=total_mass, simulated_s=O.time, material=p["material"],
+         left_particles=count - len(particle_ids), left_mass_kg=left_mass[0], base_spheres=len(base_ids),
          initial_energy_j=initial_energy,
          at_rest=bool(dem.last["hopper_mass"] == 0.0 and dem.last["max_speed"] < p["rest_speed"]),
          mean_diameter_m=float(2.0 * reaches.mean()) if shape == "sphere" else float(

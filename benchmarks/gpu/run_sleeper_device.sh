@@ -11,6 +11,12 @@
 # resumes after its last finished stage when run again with the same cache (preparation.StageCheckpoints).
 # CAMPAIGN=FILE runs that campaign (tools/campaign.py, local pool of JOBS runs at a time, default 4) into
 # OUTDIR/campaign instead of one run; its [set] table chooses the standalone driver and the CUDA backend.
+# A load run longer than one call: give it restart checkpoints and a time limit inside the call, e.g.
+#   ... OUTDIR --set cycles=100 --checkpoint-every 0.05 --time-limit 540
+# and continue it in the next call with the same command and RESUME=1: the run left as OUTDIR/run.partial-XXXXXXXX
+# goes on from its newest checkpoint (railcosim run --resume: the same --set values; --checkpoint-every and
+# --time-limit again, so that a third call can go on) and becomes OUTDIR/run once finished (if no earlier
+# OUTDIR/run is there).
 set -euo pipefail
 out=${1:?usage: run_sleeper_device.sh OUTDIR [runner options ...]}
 shift
@@ -48,7 +54,16 @@ if [ -n "${CAMPAIGN:-}" ]; then
   echo "campaign exit $code after $(( $(date +%s) - start )) s" | tee -a "$out/device.txt"
   exit $code
 fi
-${PYTHON:-python3} "$root/tools/run_case.py" "$root/cases/sleeper_on_ballast" --out "$out/run" --force \
+target=(--out "$out/run" --force)
+if [ -n "${RESUME:-}" ]; then
+  partial=$(ls -dt "$out"/run.partial-* 2>/dev/null | head -n 1)
+  if [ -z "$partial" ]; then
+    echo "run_sleeper_device.sh: RESUME is set but there is no interrupted run $out/run.partial-*" >&2
+    exit 2
+  fi
+  target=(--resume "$partial")
+fi
+${PYTHON:-python3} "$root/tools/run_case.py" "$root/cases/sleeper_on_ballast" "${target[@]}" \
   --set dem_driver=standalone --set polyhedra_backend=cuda --set "dem_threads=${THREADS:-$(nproc)}" "$@"
 code=$?
 set -e

@@ -53,13 +53,6 @@ class SleeperOnBallast(Case):
             problems.append("particle_shape='cluster' is not available yet for this case (README, 'What is missing')")
         return problems
 
-    def restart_unsupported(self, p):
-        """The standalone driver (dem_driver.py) saves no restart checkpoints yet; the YADE participant does."""
-        if p["dem_driver"] == "standalone":
-            return ("the standalone DEM driver (dem_driver = \"standalone\") saves no restart checkpoints yet; "
-                    "run with dem_driver = \"yade\" to checkpoint")
-        return None
-
     @staticmethod
     def dem_script(p, script, *arguments):
         """A DEM script of the case folder on the dem_driver's interpreter: YADE with dem_threads OpenMP threads (the

@@ -62,9 +62,9 @@ class Case:
         return []
 
     def restart_unsupported(self, p):
-        """Why a run with these parameters cannot save or resume restart checkpoints (a DEM participant other than
-        railcosim.dem's, which does not take part in them), as one sentence; None when it can. The runner refuses
-        --checkpoint-every and --resume with this reason before anything runs."""
+        """Why a run with these parameters cannot save or resume restart checkpoints (a DEM participant that takes no
+        part in them: neither railcosim.dem's nor the standalone polyhedra driver), as one sentence; None when it can.
+        The runner refuses --checkpoint-every and --resume with this reason before anything runs."""
         return None
 
     def duration_s(self, p):

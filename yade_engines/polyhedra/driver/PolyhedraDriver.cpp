@@ -99,11 +99,11 @@ struct rcp_bed {
   // Restart checkpoints (rcp_set_restart), as FemCouplingEngine's: ordered at a window's exchange, completed by the
   // driving script with its own state (rcp_complete_checkpoint).
   std::string checkpointFolder, checkpointRun, resumeFrom, checkpointPending;
-  double checkpointEvery = 0.0, timeAtConnect = 0.0, restartTime = 0.0;
+  double checkpointEvery = 0.0, restartTime = 0.0;
   long checkpointsWritten = 0;
   std::vector<railcosim::CheckpointFile> femFiles;
   railcosim::CheckpointManifest resumedManifest;
-  std::string resumedDriver, resumedScript;
+  std::string resumedScript;
   bool resumedFilesRestored = false;
   static constexpr const char* stateFile = "dem_state.bin";
 
@@ -196,7 +196,7 @@ struct rcp_bed {
     const std::string name = railcosim::checkpointName(static_cast<std::uint64_t>(window));
     railcosim::prepareCheckpoint(checkpointFolder, name);
     const double waitBefore = participant->statistics().waitSeconds;
-    femFiles = coupling->orderRestart(name, time - timeAtConnect);
+    femFiles = coupling->orderRestart(name, time); // the clock starts at the handshake (rcp_connect: no step before)
     waitTime += participant->statistics().waitSeconds - waitBefore;
     checkpointPending = name;
     ++checkpointsWritten;
@@ -212,7 +212,7 @@ struct rcp_bed {
     state.i64(subcycles);
     state.reals(std::vector<double>(surfaceConnectivity.begin(), surfaceConnectivity.end()));
     state.i64(window);
-    state.reals({time, timeAtConnect, meanContacts, workDem, workFem, savedTime, savedWorkDem, savedWorkFem});
+    state.reals({time, meanContacts, workDem, workFem, savedTime, savedWorkDem, savedWorkFem});
     state.reals(facetNodes);
     state.reals(facetNodeVelocities);
     state.flag(facetsMove);
@@ -247,9 +247,9 @@ struct rcp_bed {
       refuse("the DEM state is of window " + std::to_string(window) + ", the manifest's of window " +
              std::to_string(resumedManifest.window));
     const std::vector<double> clock = state.reals();
-    if (clock.size() != 8) state.fail("8 clock and work figures expected");
-    time = clock[0], timeAtConnect = clock[1], meanContacts = clock[2], workDem = clock[3], workFem = clock[4];
-    savedTime = clock[5], savedWorkDem = clock[6], savedWorkFem = clock[7];
+    if (clock.size() != 7) state.fail("7 clock and work figures expected");
+    time = clock[0], meanContacts = clock[1], workDem = clock[2], workFem = clock[3];
+    savedTime = clock[4], savedWorkDem = clock[5], savedWorkFem = clock[6];
     std::vector<double> nodes = state.reals(), velocities = state.reals();
     if (nodes != facetNodes) refuse("the walls differ from the saved ones");
     facetNodeVelocities = std::move(velocities);
@@ -301,7 +301,7 @@ struct rcp_bed {
     railcosim::CheckpointManifest manifest;
     manifest.name = checkpointPending;
     manifest.window = static_cast<std::uint64_t>(window);
-    manifest.time = time - timeAtConnect;
+    manifest.time = time;
     manifest.scheme = railcosim::toString(coupling->scheme());
     manifest.run = checkpointRun;
     manifest.files = written;

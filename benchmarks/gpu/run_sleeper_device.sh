@@ -13,10 +13,10 @@
 # OUTDIR/campaign instead of one run; its [set] table chooses the standalone driver and the CUDA backend.
 # A load run longer than one call: give it restart checkpoints and a time limit inside the call, e.g.
 #   ... OUTDIR --set cycles=100 --checkpoint-every 0.05 --time-limit 540
-# and continue it in the next call with the same command and RESUME=1: the run left as OUTDIR/run.partial-XXXXXXXX
-# goes on from its newest checkpoint (railcosim run --resume: the same --set values; --checkpoint-every and
-# --time-limit again, so that a third call can go on) and becomes OUTDIR/run once finished (if no earlier
-# OUTDIR/run is there).
+# and continue it in the next call with the same command and RESUME=1: the interrupted run goes on from its newest
+# checkpoint (railcosim run --resume: the same --set values; --checkpoint-every and --time-limit again, so that a
+# third call can go on). It is OUTDIR/run, or OUTDIR/run.partial-XXXXXXXX when a finished OUTDIR/run was there
+# (that one moves to OUTDIR/run once finished only if OUTDIR/run has gone).
 set -euo pipefail
 out=${1:?usage: run_sleeper_device.sh OUTDIR [runner options ...]}
 shift
@@ -57,8 +57,11 @@ fi
 target=(--out "$out/run" --force)
 if [ -n "${RESUME:-}" ]; then
   partial=$(ls -dt "$out"/run.partial-* 2>/dev/null | head -n 1)
+  if [ -z "$partial" ] && [ -d "$out/run/checkpoints" ]; then
+    partial=$out/run
+  fi
   if [ -z "$partial" ]; then
-    echo "run_sleeper_device.sh: RESUME is set but there is no interrupted run $out/run.partial-*" >&2
+    echo "run_sleeper_device.sh: RESUME is set but there is no interrupted run with checkpoints in $out" >&2
     exit 2
   fi
   target=(--resume "$partial")

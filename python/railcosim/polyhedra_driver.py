@@ -9,6 +9,8 @@ set_wall_velocity) and, once connected, a FEM surface coupled through the bridge
     bed.set_walls(corners, material_of_triangle, materials)                   # (n, 3, 3) corners
     bed.step(100); bed.states()                                               # body-frame states
     bed.connect(endpoint, scheme="implicit", surface_material=(...)); bed.window()
+    # restart checkpoints: bed.set_restart(**restart_settings()) before connect; after a window with
+    # bed.checkpoint_pending, bed.complete_checkpoint(files, state); resumed: bed.resumed_state() after connect
 
 The library is looked for in RAILCOSIM_POLYHEDRA_DRIVER (a file), else in RAILCOSIM_BUILD (default ./build) under
 yade_engines/polyhedra/driver. numpy only: runs wherever the library does, without YADE.

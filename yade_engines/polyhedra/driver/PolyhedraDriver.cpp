@@ -295,9 +295,11 @@ struct rcp_bed {
       if (!out) throw railcosim::Error("writing " + staging + "/" + stateFile + " failed (disk full?)");
     }
     written.push_back(railcosim::describeCheckpointFile(staging, stateFile, "dem"));
-    for (const std::string& path : files)
+    for (const std::string& path : files) {
+      const std::string restoreTo = railcosim::relativeToWorkFolder(path, "rcp_complete_checkpoint");
       written.push_back(railcosim::copyIntoCheckpoint(staging, path, std::filesystem::path(path).filename().string(),
-                                                      "dem", railcosim::relativeToWorkFolder(path, "rcp_complete_checkpoint")));
+                                                      "dem", restoreTo));
+    }
     railcosim::CheckpointManifest manifest;
     manifest.name = checkpointPending;
     manifest.window = static_cast<std::uint64_t>(window);

@@ -375,9 +375,11 @@ std::string FemCouplingEngine::completeCheckpoint(const std::vector<std::string>
       if (!out) throw railcosim::Error("writing " + staging + "/" + stateFile + " failed (disk full?)");
     }
     written.push_back(railcosim::describeCheckpointFile(staging, stateFile, "dem"));
-    for (const std::string& path : files)
+    for (const std::string& path : files) {
+      const std::string restoreTo = railcosim::relativeToWorkFolder(path, "FemCouplingEngine.completeCheckpoint");
       written.push_back(railcosim::copyIntoCheckpoint(staging, path, std::filesystem::path(path).filename().string(),
-                                                      "dem", railcosim::relativeToWorkFolder(path, "FemCouplingEngine.completeCheckpoint")));
+                                                      "dem", restoreTo));
+    }
     railcosim::CheckpointManifest manifest;
     manifest.name = checkpointPending;
     manifest.window = static_cast<std::uint64_t>(window);

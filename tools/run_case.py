@@ -38,7 +38,8 @@ least 600 s, 3600 s when the case declares no expected_wall_s; 0 means none.
 OUT/checkpoints (the newest two complete ones are kept). --resume DIR continues the interrupted run whose results
 folder is DIR from its newest complete checkpoint, writing into DIR; it is refused in one line, before anything is
 written, when DIR's parameters differ from this command's or the checkpoint is incomplete, damaged, of another run or
-of another protocol version (python/railcosim/checkpoints.py; docs/protocol.md section 12).
+of another protocol version (python/railcosim/checkpoints.py; docs/protocol.md section 12). Both are refused before
+anything runs when the case says its DEM side saves no checkpoints with these parameters (Case.restart_unsupported).
 
 Exit codes: 0 ok, 1 failed, 2 refused (command line, case, values), 3 a check failed, 4 time limit,
 128+N stopped by signal N (130 Ctrl-C, 129 SIGHUP, 143 SIGTERM).
@@ -700,6 +701,12 @@ def main(argv, guard):
     problems = parameters.check_parameters(params, config, case)
     if problems:
         raise ParameterError("\n".join(problems))
+    if args.checkpoint_every is not None or args.resume:
+        # A DEM side that saves no state would run through unsaved: refused rather than ignored.
+        reason = case.restart_unsupported(params)
+        if reason:
+            option = "--checkpoint-every" if args.checkpoint_every is not None else "--resume"
+            raise CaseError(f"{option} is not available for this run: {reason}")
     time_limit = args.time_limit if args.time_limit is not None else parameters.default_time_limit(config, params)
     params["smoke"] = args.smoke
     params["case_dir"] = case_dir

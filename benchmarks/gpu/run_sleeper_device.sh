@@ -11,6 +11,12 @@
 # resumes after its last finished stage when run again with the same cache (preparation.StageCheckpoints).
 # CAMPAIGN=FILE runs that campaign (tools/campaign.py, local pool of JOBS runs at a time, default 4) into
 # OUTDIR/campaign instead of one run; its [set] table chooses the standalone driver and the CUDA backend.
+# A load run longer than one call: give it restart checkpoints and a time limit inside the call, e.g.
+#   ... OUTDIR --set cycles=100 --checkpoint-every 0.05 --time-limit 540
+# and continue it in the next call with the same command and RESUME=1: the interrupted run goes on from its newest
+# checkpoint (railcosim run --resume: the same --set values; --checkpoint-every and --time-limit again, so that a
+# third call can go on). It is OUTDIR/run, or OUTDIR/run.partial-XXXXXXXX when a finished OUTDIR/run was there
+# (that one moves to OUTDIR/run once finished only if OUTDIR/run has gone).
 set -euo pipefail
 out=${1:?usage: run_sleeper_device.sh OUTDIR [runner options ...]}
 shift
@@ -48,7 +54,19 @@ if [ -n "${CAMPAIGN:-}" ]; then
   echo "campaign exit $code after $(( $(date +%s) - start )) s" | tee -a "$out/device.txt"
   exit $code
 fi
-${PYTHON:-python3} "$root/tools/run_case.py" "$root/cases/sleeper_on_ballast" --out "$out/run" --force \
+target=(--out "$out/run" --force)
+if [ -n "${RESUME:-}" ]; then
+  partial=$(ls -dt "$out"/run.partial-* 2>/dev/null | head -n 1)
+  if [ -z "$partial" ] && [ -d "$out/run/checkpoints" ]; then
+    partial=$out/run
+  fi
+  if [ -z "$partial" ]; then
+    echo "run_sleeper_device.sh: RESUME is set but there is no interrupted run with checkpoints in $out" >&2
+    exit 2
+  fi
+  target=(--resume "$partial")
+fi
+${PYTHON:-python3} "$root/tools/run_case.py" "$root/cases/sleeper_on_ballast" "${target[@]}" \
   --set dem_driver=standalone --set polyhedra_backend=cuda --set "dem_threads=${THREADS:-$(nproc)}" "$@"
 code=$?
 set -e

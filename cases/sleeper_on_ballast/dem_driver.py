@@ -2,8 +2,11 @@
 # on the polyhedra library through its C interface (railcosim.polyhedra_driver), one coupling window per call as
 # FemCouplingEngine with contactModel 'polyhedra' runs it; the GPU machine's path (no YADE there).
 # Run by `railcosim run` as: python3 dem_driver.py PARAMETERS.json ENDPOINT OUTDIR (after bed.py, which leaves bed.json)
+# With `--checkpoint-every S` the driver saves a restart checkpoint with the FEM side every S s of simulated time (the
+# polyhedra system, the coupling and this script's time series); `--resume OUT` goes on from the newest one.
 import json
 import os
+import pickle
 import sys
 import time
 
@@ -16,7 +19,7 @@ import loadrun  # noqa: E402
 import preparation as prep  # noqa: E402
 import scene as sc  # noqa: E402
 from railcosim import dem as coupled_dem  # noqa: E402  (coupling options; YADE-free)
-from railcosim import results, solvers  # noqa: E402
+from railcosim import polyhedra_driver, results, solvers  # noqa: E402
 
 if len(sys.argv) != 4:
     raise SystemExit("usage: python3 dem_driver.py PARAMETERS.json ENDPOINT OUTDIR (started by railcosim run)")
@@ -37,8 +40,12 @@ engine.set_walls(corners, np.zeros(len(corners), np.int32), [prep.stone_material
 stones = np.flatnonzero(bed.kind == prep.STONE)
 # 3. Time step, before the surface joins the walls (as dem.py's probe engine).
 engine.dt, critical, design = loadrun.time_step(p, scene, engine.critical_time_step)
-# 4. Couple: the sleeper's bottom face joins the walls; each window is one batch.
+# 4. Couple: the sleeper's bottom face joins the walls; each window is one batch. A resumed run goes on from the
+# checkpoint's state (the system, the scheme, the driver's counters) instead of the bed's.
 options = coupled_dem.coupling_options(p)
+restart = polyhedra_driver.restart_settings()
+if restart:
+    engine.set_restart(**restart)
 subcycles = engine.connect(endpoint, scheme=options["scheme"], surface_material=loadrun.sleeper_material(p),
                            timeout=options["timeout"], subcycles=options.get("subcycles", 0),
                            implicit_tolerance=options["implicitTolerance"],
@@ -76,14 +83,26 @@ class Window:
 
 
 window = Window()
-recorder = results.DemRecorder(out)
 every = solvers.progress_period({**p, "duration_s": duration})
+first = 0
+if restart and restart["resume_from"]:
+    # The checkpoint's time series file is put back first; the recorder appends to it.
+    saved = pickle.loads(engine.resumed_state())
+    recorder = results.DemRecorder(out, resume_windows=saved["windows_recorded"])
+    first = int(figures["windows"])
+    print(f"resumed from {restart['resume_from']} at t={figures['time']:.4f} s, window {first}", flush=True)
+else:
+    recorder = results.DemRecorder(out)
 wall_start = time.monotonic()
-for w in range(windows):
+for w in range(first, windows):
     engine.window()
     figures = engine.figures()
     recorder.append(time=figures["time"], **sensors.record(window, w + 1), interface_work_dem=figures["interface_work_dem"],
                     interface_work_fem=figures["interface_work_fem"])
+    if engine.checkpoint_pending:
+        recorder.flush()
+        engine.complete_checkpoint([recorder.path], pickle.dumps({"windows_recorded": len(recorder)}))
+        print(f"checkpoint at t={figures['time']:.4f} s, window {w + 1}", flush=True)
     if (w + 1) % every == 0:
         print(f"t={figures['time']:.4f} s  window {w + 1}/{windows}  sleeper carried "
               f"{figures['total_force_z'] / 1e3:.2f} kN  {time.monotonic() - wall_start:.1f} s", flush=True)
@@ -96,7 +115,8 @@ info = {"subcycles": subcycles, "exchanges": int(figures["windows"]), "scheme": 
         "interface_work_fem_j": figures["interface_work_fem"], "implicit_passes": int(figures["implicit_passes"]),
         "max_window_passes": int(figures["max_window_passes"]),
         "unconverged_windows": int(figures["unconverged_windows"]), "checkpoint_time_s": figures["checkpoint_time"],
-        "restart_checkpoint_time_s": 0.0, "steps": windows * subcycles, "dt": engine.dt, "wall_time_s": wall_time,
+        "restart_checkpoint_time_s": figures["restart_checkpoint_time"], "steps": windows * subcycles, "dt": engine.dt,
+        "wall_time_s": wall_time,
         "particles": len(stones), "stones": len(stones), "sensors": len(sensors.indices), "particle_mass_kg": mass,
         "critical_time_step_s": critical, "design_contact_force_n": design["contact_force_n"], "seat_height_m": seat,
         "sensor_period_windows": sensors.every, "polyhedra_backend": backend, "dem_driver": de.DRIVER,

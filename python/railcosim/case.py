@@ -11,6 +11,7 @@ A case is a folder cases/NAME with
 The runner calls the hooks in this order; p is the resolved parameters ({name: value} over all tables, plus
 `smoke` and `case_dir`), out the run's results folder (the solvers run in it), endpoint the run's bridge address:
   check_parameters(p) -> [message]          before anything starts: rules the [limits] table cannot say
+  restart_unsupported(p) -> reason | None   before anything starts, with --checkpoint-every or --resume only
   preparation_runs(p, out) -> [(name, argv)] runs the coupled run starts from (e.g. a particle bed), one after the other
   fem_command(p, endpoint, out) -> argv     the FreeFEM participant  } started together,
   dem_command(p, endpoint, out) -> argv     the YADE participant     } watched until both exit
@@ -59,6 +60,12 @@ class Case:
     def check_parameters(self, p):
         """Problems the [limits] rules cannot express (e.g. a DEM step above the critical one), one message each."""
         return []
+
+    def restart_unsupported(self, p):
+        """Why a run with these parameters cannot save or resume restart checkpoints (a DEM participant that takes no
+        part in them: neither railcosim.dem's nor the standalone polyhedra driver), as one sentence; None when it can.
+        The runner refuses --checkpoint-every and --resume with this reason before anything runs."""
+        return None
 
     def duration_s(self, p):
         """Simulated time of the coupled run [s]: the duration_s parameter, unless the case derives it (a load

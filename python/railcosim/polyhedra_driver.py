@@ -9,6 +9,8 @@ set_wall_velocity) and, once connected, a FEM surface coupled through the bridge
     bed.set_walls(corners, material_of_triangle, materials)                   # (n, 3, 3) corners
     bed.step(100); bed.states()                                               # body-frame states
     bed.connect(endpoint, scheme="implicit", surface_material=(...)); bed.window()
+    # restart checkpoints: bed.set_restart(**restart_settings()) before connect; after a window with
+    # bed.checkpoint_pending, bed.complete_checkpoint(files, state); resumed: bed.resumed_state() after connect
 
 The library is looked for in RAILCOSIM_POLYHEDRA_DRIVER (a file), else in RAILCOSIM_BUILD (default ./build) under
 yade_engines/polyhedra/driver. numpy only: runs wherever the library does, without YADE.
@@ -23,7 +25,7 @@ FIGURES = ("window_length", "subcycles", "windows", "surface_nodes", "surface_tr
            "total_force_y", "total_force_z", "surface_force_x", "surface_force_y", "surface_force_z",
            "interface_work_dem", "interface_work_fem", "implicit_passes", "last_window_passes", "max_window_passes",
            "unconverged_windows", "last_residual", "surface_contacts", "polyhedra_time", "mapping_time",
-           "bridge_time", "wait_time", "checkpoint_time", "time")
+           "bridge_time", "wait_time", "checkpoint_time", "time", "restart_checkpoint_time", "restart_checkpoints")
 
 
 class DriverError(RuntimeError):
@@ -65,12 +67,25 @@ def _library():
             "rcp_contacts": (i, [p, _I, _I, _I, _D, _D, _D, _D]),
             "rcp_connect": (i, [p, s, s, s, d, d, i, d, d, i, d, i, _D]), "rcp_window": (i, [p]),
             "rcp_coupling_figures": (i, [p, _D]), "rcp_surface_triangles": (i, [p, _I]), "rcp_finalize": (i, [p]),
+            "rcp_set_restart": (i, [p, s, s, d, s]), "rcp_checkpoint_pending": (i, [p]),
+            "rcp_complete_checkpoint": (i, [p, s, ctypes.c_char_p, ctypes.c_long]),
+            "rcp_resumed_state": (ctypes.c_long, [p, ctypes.c_char_p, ctypes.c_long]),
         }
         for name, (result, arguments) in signatures.items():
             function = getattr(lib, name)
             function.restype, function.argtypes = result, arguments
         _LIBRARY = lib
     return _LIBRARY
+
+
+def restart_settings(environment=os.environ):
+    """set_restart's arguments from what `railcosim run --checkpoint-every / --resume` sets for both solvers
+    (railcosim.checkpoints.solver_environment), or None when the run has no restart checkpoints."""
+    folder, run, every, resume = (environment.get(f"RAILCOSIM_{name}", "") for name in
+                                  ("CHECKPOINT_DIR", "CHECKPOINT_RUN", "CHECKPOINT_EVERY", "RESUME"))
+    if not folder:
+        return None
+    return {"folder": folder, "run": run, "every": float(every) if every else 0.0, "resume_from": resume or None}
 
 
 def _doubles(values, count=None):
@@ -215,6 +230,31 @@ class PolyhedraBed:
                                                  timeout, heartbeat, int(subcycles), implicit_tolerance,
                                                  implicit_absolute_tolerance, int(implicit_max_iterations),
                                                  implicit_relaxation, int(aitken), _pointer(m)))
+
+    def set_restart(self, folder, run, every=0.0, resume_from=None):
+        """Restart checkpoints, before connect: into `folder`, identified by `run`, one every `every` seconds of
+        simulated time (0: none), ordered at the exchange that ends a window; `resume_from` a checkpoint folder to go
+        on from (connect() then restores the system, the scheme and the counters). What `railcosim run
+        --checkpoint-every / --resume` sets gives them (restart_settings())."""
+        self._check(self._lib.rcp_set_restart(self._handle, folder.encode(), run.encode(), float(every),
+                                              (resume_from or "").encode()))
+
+    @property
+    def checkpoint_pending(self):
+        """Whether the last window ordered a restart checkpoint, which complete_checkpoint() completes."""
+        return bool(self._lib.rcp_checkpoint_pending(self._handle))
+
+    def complete_checkpoint(self, files, state):
+        """Completes the ordered checkpoint with `state` (bytes: the driving script's own, resumed_state() gives it
+        back) and `files` (paths in the working folder, put back on resume)."""
+        self._check(self._lib.rcp_complete_checkpoint(self._handle, "\n".join(files).encode(), state, len(state)))
+
+    def resumed_state(self):
+        """In a resumed run, after connect: puts the checkpoint's files back and returns the script's saved state."""
+        size = self._check(self._lib.rcp_resumed_state(self._handle, None, 0))
+        buffer = ctypes.create_string_buffer(max(size, 1))
+        self._check(self._lib.rcp_resumed_state(self._handle, buffer, size))
+        return buffer.raw[:size]
 
     def window(self):
         """One coupling window, repeated as the scheme orders until it stands."""

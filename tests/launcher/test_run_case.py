@@ -507,6 +507,27 @@ class DemOnlyTest(LauncherTestCase):
                 self.assertEqual(self.started(), {})
 
 
+class RestartUnsupportedTest(LauncherTestCase):
+    """A run whose DEM side saves no restart checkpoints (Case.restart_unsupported gives a reason) is refused with
+    --checkpoint-every or --resume before anything starts, rather than run through unsaved."""
+
+    def test_refused_before_anything_starts(self):
+        folder = os.path.join(self.tmp, "unsaved_case")
+        shutil.copytree(CASE, folder)
+        shutil.copy(os.path.join(HERE, "standin_solver.py"), self.tmp)  # the stand-in case finds it beside its folder
+        with open(os.path.join(folder, "case.py"), "a") as f:
+            f.write("\n    def restart_unsupported(self, p):\n        return 'this DEM side saves no state'\n")
+        for extra in (["--checkpoint-every", "0.01"], ["--resume", self.out]):
+            with self.subTest(option=extra[0]):
+                code, stdout, stderr = self.run_case(f"marker_dir={self.markers}", case=folder, extra=extra)
+                self.assertEqual(code, run_case.EXIT_REFUSED, stdout + stderr)
+                self.assertIn(f"{extra[0]} is not available for this run: this DEM side saves no state", stderr)
+                self.assertEqual(self.started(), {})
+                self.assertFalse(os.path.exists(self.out) or self.partials())
+        code, stdout, stderr = self.run_case(f"marker_dir={self.markers}", case=folder)  # without them it runs
+        self.assertEqual(code, 0, stdout + stderr)
+
+
 class EndpointTest(LauncherTestCase):
     """The endpoint lies in a per-run folder only the user can enter; the token travels in the environment only."""
 

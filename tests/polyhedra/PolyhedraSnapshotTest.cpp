@@ -13,6 +13,7 @@
 #include "polyhedra/PolyhedraShapes.hpp"
 #include "polyhedra/PolyhedraSystem.hpp"
 #include "railcosim/Error.hpp"
+#include "railcosim/StateStream.hpp"
 
 using namespace railcosim::polyhedra;
 
@@ -172,10 +173,11 @@ BOOST_AUTO_TEST_CASE(state_read_into_a_fresh_system_continues_the_run_bit_for_bi
   BOOST_TEST(observables(reader) == written, boost::test_tools::per_element());
 }
 
-// (c) A restart inside an implicit window (PolyhedraGpuEngine.restartState): the window's snapshot and the current
-// state written as two streams, read into a fresh system (snapshot first, kept, then the current state over it, which
-// must not drop it: same storage order). The rejected pass is then repeated from the snapshot: oracle the uninterrupted
-// run, bit for bit; and the writer, which read its current state back after writing the snapshot, still holds both.
+// (c) A restart inside an implicit window (writeRestartState, used by PolyhedraGpuEngine.restartState and the
+// standalone driver): the window's snapshot and the current state written as two streams, read into a fresh system
+// (snapshot first, kept, then the current state over it, which must not drop it: same storage order). The rejected
+// pass is then repeated from the snapshot: oracle the uninterrupted run, bit for bit; and the writer, which read its
+// current state back after writing the snapshot, still holds both.
 BOOST_AUTO_TEST_CASE(a_restart_inside_an_implicit_window_keeps_the_window_snapshot) {
   const std::string expected = uninterruptedRun();
   PolyhedraSystem writer(bedParameters());
@@ -184,23 +186,19 @@ BOOST_AUTO_TEST_CASE(a_restart_inside_an_implicit_window_keeps_the_window_snapsh
   writer.saveSnapshot();
   moveFloor(writer, 0.0, -3.0 * windowSpeed); // a pass that will be rejected
   writer.step(windowSteps);
-  std::stringstream current, snapshot;
-  writer.writeState(current);
-  writer.restoreSnapshot();
-  writer.writeState(snapshot);
-  std::istringstream back(current.str());
-  writer.readState(back);
+  const std::string current = stateBytes(writer);
+  std::stringstream restart;
+  railcosim::StateWriter out(restart);
+  writer.writeRestartState(out);
   BOOST_TEST(writer.hasSnapshot());
-  BOOST_TEST(stateBytes(writer) == current.str());
+  BOOST_TEST(stateBytes(writer) == current);
 
   PolyhedraSystem reader(bedParameters());
   buildBed(reader, 1.7);
-  reader.readState(snapshot);
-  reader.saveSnapshot();
-  std::istringstream now(current.str());
-  reader.readState(now);
+  railcosim::StateReader in(restart, "the restart state");
+  reader.readRestartState(in);
   BOOST_TEST(reader.hasSnapshot());
-  BOOST_TEST(stateBytes(reader) == current.str());
+  BOOST_TEST(stateBytes(reader) == current);
   for (PolyhedraSystem* system : {&reader, &writer}) {
     system->restoreSnapshot();
     moveFloor(*system, 0.0, windowSpeed);

@@ -20,6 +20,7 @@
 #include "polyhedra/PolyhedraBackend.hpp"
 #include "railcosim/Error.hpp"
 #include "railcosim/Log.hpp"
+#include "railcosim/StateStream.hpp"
 
 namespace railcosim::polyhedra {
 
@@ -936,6 +937,32 @@ void PolyhedraSystem::restoreSnapshot() {
 }
 
 bool PolyhedraSystem::hasSnapshot() const { return implementation_->snapshot.saved; }
+
+void PolyhedraSystem::writeRestartState(railcosim::StateWriter& out) {
+  std::ostringstream current;
+  writeState(current);
+  out.bytes(current.str());
+  out.flag(hasSnapshot());
+  if (hasSnapshot()) {
+    std::ostringstream snapshot;
+    restoreSnapshot();
+    writeState(snapshot);
+    std::istringstream back(current.str());
+    readState(back);
+    out.bytes(snapshot.str());
+  }
+}
+
+void PolyhedraSystem::readRestartState(railcosim::StateReader& in) {
+  const std::string current = in.bytes();
+  if (in.flag()) { // the snapshot first, kept by the system; then the current state over it
+    std::istringstream snapshot(in.bytes());
+    readState(snapshot);
+    saveSnapshot();
+  }
+  std::istringstream now(current);
+  readState(now);
+}
 
 void PolyhedraSystem::writeState(std::ostream& out) const {
   Implementation& m = *implementation_;

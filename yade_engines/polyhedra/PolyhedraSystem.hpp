@@ -12,6 +12,11 @@ namespace railcosim::kernels {
 struct ContactMaterial;
 }
 
+namespace railcosim {
+class StateReader;
+class StateWriter;
+} // namespace railcosim
+
 namespace railcosim::polyhedra {
 
 /// A convex core polyhedron shared by every stone of one shape (a "shape template"). The stone is the
@@ -217,6 +222,11 @@ public:
   /// truncated stream, leaving the system as it was. A kept snapshot stays kept when the stream has this system's
   /// storage order (a state of the same run), and is dropped otherwise.
   void readState(std::istream& in);
+  /// Restart checkpoints: the state (writeState) and, when kept, the snapshot of an implicit window's start, as
+  /// length-prefixed sections of `out` (railcosim::StateWriter; the snapshot is written by restoring it, writing it
+  /// and reading the current state back, which readState restores exactly). readRestartState puts both back.
+  void writeRestartState(railcosim::StateWriter& out);
+  void readRestartState(railcosim::StateReader& in);
 
   struct Implementation;
 

@@ -75,5 +75,8 @@ std::string latestCheckpoint(const std::string& root);
 /// Copies `side`'s files that have a restoreTo back under `workFolder` (each through a temporary file and a rename).
 void restoreCheckpointFiles(const std::string& folder, const CheckpointManifest& manifest, const std::string& side,
                             const std::string& workFolder);
+/// An output file's path relative to the working folder (the run's results folder), where it goes back on resume
+/// (copyIntoCheckpoint's restoreTo). Throws std::invalid_argument, naming `caller`, for a path outside that folder.
+std::string relativeToWorkFolder(const std::string& path, const std::string& caller);
 
 } // namespace railcosim

@@ -323,4 +323,13 @@ void restoreCheckpointFiles(const std::string& folder, const CheckpointManifest&
   }
 }
 
+std::string relativeToWorkFolder(const std::string& path, const std::string& caller) {
+  namespace fs = std::filesystem;
+  const fs::path relative = fs::absolute(path).lexically_normal().lexically_relative(fs::current_path());
+  if (relative.empty() || *relative.begin() == "..")
+    throw std::invalid_argument(caller + ": " + path + " lies outside the working folder " +
+                                fs::current_path().string() + "; only the run's own outputs can be checkpointed");
+  return relative.string();
+}
+
 } // namespace railcosim

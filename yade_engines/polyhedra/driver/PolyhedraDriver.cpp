@@ -11,6 +11,8 @@
 #include <chrono>
 #include <cmath>
 #include <cstring>
+#include <filesystem>
+#include <fstream>
 #include <sstream>
 #include <memory>
 #include <stdexcept>
@@ -20,9 +22,12 @@
 #include "polyhedra/PolyhedraBodyFrames.hpp"
 #include "polyhedra/PolyhedraSystem.hpp"
 #include "polyhedra/PolyhedraWindow.hpp"
+#include "railcosim/Checkpoint.hpp"
 #include "railcosim/CouplingScheme.hpp"
+#include "railcosim/Error.hpp"
 #include "railcosim/Log.hpp"
 #include "railcosim/Participant.hpp"
+#include "railcosim/StateStream.hpp"
 
 namespace poly = railcosim::polyhedra;
 
@@ -90,18 +95,31 @@ struct rcp_bed {
   long loadedTriangles = 0;
   bool warnedUnconverged = false;
   double polyhedraTime = 0.0, mappingTime = 0.0, bridgeTime = 0.0, waitTime = 0.0, checkpointTime = 0.0;
+  railcosim::SchemeSettings settings;
+  // Restart checkpoints (rcp_set_restart), as FemCouplingEngine's: ordered at a window's exchange, completed by the
+  // driving script with its own state (rcp_complete_checkpoint).
+  std::string checkpointFolder, checkpointRun, resumeFrom, checkpointPending;
+  double checkpointEvery = 0.0, restartTime = 0.0;
+  long checkpointsWritten = 0;
+  std::vector<railcosim::CheckpointFile> femFiles;
+  railcosim::CheckpointManifest resumedManifest;
+  std::string resumedScript;
+  bool resumedFilesRestored = false;
+  static constexpr const char* stateFile = "dem_state.bin";
 
   int facetTriangles() const { return static_cast<int>(materialOfTriangle.size()); }
 
   // The walls as the system takes them: the facets, then the coupled surface with the last material.
-  void applyWalls() {
+  void applyWalls() { applyWalls(bool(coupling)); }
+  void applyWallsWithSurface() { applyWalls(true); }
+  void applyWalls(bool withSurface) {
     if (stepped) throw std::logic_error("the walls cannot change after the first step");
     std::vector<double> coordinates = facetNodes;
     std::vector<std::int32_t> triangles(3 * facetTriangles()), materials = materialOfTriangle;
     for (std::size_t k = 0; k < triangles.size(); ++k) triangles[k] = static_cast<std::int32_t>(k);
     std::vector<poly::Material> list = wallMaterials;
     surfaceFirstTriangle = facetTriangles();
-    if (coupling) {
+    if (withSurface) {
       const auto firstNode = static_cast<std::int32_t>(coordinates.size() / 3);
       coordinates.insert(coordinates.end(), surfaceCoordinates.begin(), surfaceCoordinates.end());
       for (std::int32_t node : surfaceConnectivity) triangles.push_back(firstNode + node);
@@ -168,6 +186,136 @@ struct rcp_bed {
     return result;
   }
 
+  // As FemCouplingEngine::orderRestartCheckpoint: the FEM side saves its part at once, at its window boundary.
+  void orderRestartCheckpoint() {
+    if (checkpointFolder.empty()) throw std::invalid_argument("a checkpoint interval is set but no checkpoint folder");
+    if (!checkpointPending.empty())
+      railcosim::log(railcosim::LogLevel::Warning, "polyhedra driver: restart checkpoint " + checkpointPending +
+                                                       " was ordered but never completed; it is not resumed from");
+    const auto start = Clock::now();
+    const std::string name = railcosim::checkpointName(static_cast<std::uint64_t>(window));
+    railcosim::prepareCheckpoint(checkpointFolder, name);
+    const double waitBefore = participant->statistics().waitSeconds;
+    femFiles = coupling->orderRestart(name, time); // the clock starts at the handshake (rcp_connect: no step before)
+    waitTime += participant->statistics().waitSeconds - waitBefore;
+    checkpointPending = name;
+    ++checkpointsWritten;
+    restartTime += secondsSince(start);
+  }
+
+  // The driver's state between two windows: the system (with an implicit window's snapshot), the clock, sums,
+  // counters and timings, the surface's motion in the next window and the coupling scheme's own state.
+  void writeOwnState(std::ostream& out) {
+    railcosim::StateWriter state(out);
+    state.section("polyhedra driver");
+    state.real(femDt);
+    state.i64(subcycles);
+    state.reals(std::vector<double>(surfaceConnectivity.begin(), surfaceConnectivity.end()));
+    state.i64(window);
+    state.reals({time, meanContacts, workDem, workFem, savedTime, savedWorkDem, savedWorkFem});
+    state.reals(facetNodes);
+    state.reals(facetNodeVelocities);
+    state.flag(facetsMove);
+    state.reals(windowStart);
+    state.reals(windowVelocity);
+    state.reals(nodalForces);
+    state.reals({totalForce[0], totalForce[1], totalForce[2], surfaceForce[0], surfaceForce[1], surfaceForce[2]});
+    state.i64(loadedTriangles);
+    state.flag(warnedUnconverged);
+    state.i64(checkpointsWritten);
+    state.reals({polyhedraTime, mappingTime, bridgeTime, waitTime, checkpointTime, restartTime});
+    system->writeRestartState(state);
+    std::ostringstream scheme;
+    coupling->writeState(scheme);
+    state.bytes(scheme.str());
+  }
+
+  void readOwnState(std::istream& in, const railcosim::InterfaceSetup& setup) {
+    const std::string source = resumeFrom + "/" + stateFile;
+    railcosim::StateReader state(in, source);
+    auto refuse = [&](const std::string& what) {
+      throw railcosim::CheckpointError("checkpoint " + resumeFrom + ": " + what +
+                                       "; resume with the case and parameters of the interrupted run");
+    };
+    state.section("polyhedra driver");
+    if (state.real() != femDt) refuse("the FEM side's window length differs from the saved one");
+    if (state.i64() != subcycles) refuse("the DEM steps per window differ from the saved ones");
+    if (state.reals() != std::vector<double>(surfaceConnectivity.begin(), surfaceConnectivity.end()))
+      refuse("the FEM side's interface triangles differ from the saved ones");
+    window = state.i64();
+    if (static_cast<std::uint64_t>(window) != resumedManifest.window)
+      refuse("the DEM state is of window " + std::to_string(window) + ", the manifest's of window " +
+             std::to_string(resumedManifest.window));
+    const std::vector<double> clock = state.reals();
+    if (clock.size() != 7) state.fail("7 clock and work figures expected");
+    time = clock[0], meanContacts = clock[1], workDem = clock[2], workFem = clock[3];
+    savedTime = clock[4], savedWorkDem = clock[5], savedWorkFem = clock[6];
+    std::vector<double> nodes = state.reals(), velocities = state.reals();
+    if (nodes != facetNodes) refuse("the walls differ from the saved ones");
+    facetNodeVelocities = std::move(velocities);
+    facetsMove = state.flag();
+    windowStart = state.reals();
+    windowVelocity = state.reals();
+    nodalForces = state.reals();
+    const std::vector<double> forces = state.reals();
+    if (forces.size() != 6) state.fail("6 force components expected");
+    totalForce = {forces[0], forces[1], forces[2]};
+    surfaceForce = {forces[3], forces[4], forces[5]};
+    loadedTriangles = state.i64();
+    warnedUnconverged = state.flag();
+    checkpointsWritten = state.i64();
+    const std::vector<double> timings = state.reals();
+    if (timings.size() != 6) state.fail("6 timings expected");
+    polyhedraTime = timings[0], mappingTime = timings[1], bridgeTime = timings[2];
+    waitTime += timings[3];
+    checkpointTime = timings[4], restartTime = timings[5];
+    system->readRestartState(state);
+    stepped = true;
+    std::istringstream scheme(state.bytes());
+    coupling = railcosim::DemCouplingScheme::resume(settings, *participant, setup, scheme);
+  }
+
+  // As FemCouplingEngine::completeCheckpoint, with the script's state in place of the YADE scene's and Python's.
+  std::string completeCheckpoint(const std::vector<std::string>& files, const std::string& script) {
+    if (checkpointPending.empty()) throw std::logic_error("no restart checkpoint was ordered at the last window");
+    const auto start = Clock::now();
+    const std::string staging = railcosim::stagingFolder(checkpointFolder, checkpointPending);
+    std::vector<railcosim::CheckpointFile> written;
+    {
+      std::ofstream out(staging + "/" + stateFile, std::ios::binary | std::ios::trunc);
+      railcosim::StateWriter state(out);
+      std::ostringstream own;
+      writeOwnState(own);
+      state.section("polyhedra driver");
+      state.bytes(own.str());
+      state.section("driver script");
+      state.bytes(script);
+      state.section("end");
+      out.close();
+      if (!out) throw railcosim::Error("writing " + staging + "/" + stateFile + " failed (disk full?)");
+    }
+    written.push_back(railcosim::describeCheckpointFile(staging, stateFile, "dem"));
+    for (const std::string& path : files) {
+      const std::string restoreTo = railcosim::relativeToWorkFolder(path, "rcp_complete_checkpoint");
+      written.push_back(railcosim::copyIntoCheckpoint(staging, path, std::filesystem::path(path).filename().string(),
+                                                      "dem", restoreTo));
+    }
+    railcosim::CheckpointManifest manifest;
+    manifest.name = checkpointPending;
+    manifest.window = static_cast<std::uint64_t>(window);
+    manifest.time = time;
+    manifest.scheme = railcosim::toString(coupling->scheme());
+    manifest.run = checkpointRun;
+    manifest.files = written;
+    manifest.files.insert(manifest.files.end(), femFiles.begin(), femFiles.end());
+    railcosim::commitCheckpoint(checkpointFolder, manifest);
+    const std::string folder = (std::filesystem::path(checkpointFolder) / checkpointPending).string();
+    checkpointPending.clear();
+    femFiles.clear();
+    restartTime += secondsSince(start);
+    return folder;
+  }
+
   void runWindow() {
     if (!coupling) throw std::logic_error("not coupled: rcp_connect first");
     while (true) {
@@ -202,6 +350,8 @@ struct rcp_bed {
       workFem += result.femWork;
       ++window;
       poly::beginSurfaceWindow(*coupling, femDt, windowStart, windowVelocity);
+      if (checkpointEvery > 0 && window % std::max(1L, std::lround(checkpointEvery / femDt)) == 0)
+        orderRestartCheckpoint();
       return;
     }
   }
@@ -400,7 +550,7 @@ int rcp_connect(rcp_bed* bed, const char* endpoint, const char* name, const char
   return guarded("rcp_connect", [&] {
     if (bed->coupling) throw std::logic_error("already connected");
     if (bed->stepped) throw std::logic_error("connect before the first step (the surface joins the walls)");
-    const railcosim::SchemeSettings settings =
+    bed->settings =
         railcosim::SchemeSettings::of(railcosim::parseCouplingScheme(scheme), implicitTolerance,
                                       implicitAbsoluteTolerance, implicitMaxIterations, implicitRelaxation, aitken != 0);
     railcosim::ParticipantConfig config;
@@ -408,7 +558,24 @@ int rcp_connect(rcp_bed* bed, const char* endpoint, const char* name, const char
     config.endpoint = endpoint;
     config.timeoutSeconds = timeout;
     config.heartbeatSeconds = heartbeat;
-    config.couplingScheme = railcosim::toString(settings.scheme);
+    config.couplingScheme = railcosim::toString(bed->settings.scheme);
+    std::string resumedOwn;
+    if (!bed->resumeFrom.empty()) {
+      // Checked whole before anything is exchanged: a damaged or foreign checkpoint is refused in one line.
+      bed->resumedManifest = railcosim::verifyCheckpoint(bed->resumeFrom);
+      const std::string path = bed->resumeFrom + "/" + rcp_bed::stateFile;
+      std::ifstream in(path, std::ios::binary);
+      if (!in) throw railcosim::CheckpointError("checkpoint " + bed->resumeFrom + " has no " + rcp_bed::stateFile +
+                                                " of the DEM side");
+      railcosim::StateReader state(in, path);
+      state.section("polyhedra driver");
+      resumedOwn = state.bytes();
+      state.section("driver script");
+      bed->resumedScript = state.bytes();
+      state.section("end");
+      config.resumedFrom = bed->resumedManifest.name;
+      config.resumedWindow = bed->resumedManifest.window;
+    }
     bed->participant = std::make_unique<railcosim::DemParticipant>(config);
     const auto waitStart = Clock::now();
     const railcosim::InterfaceSetup setup = bed->participant->initialize();
@@ -423,12 +590,22 @@ int rcp_connect(rcp_bed* bed, const char* endpoint, const char* name, const char
     bed->surfaceCoordinates = setup.mesh.coordinates;
     bed->surfaceTriangles = static_cast<int>(setup.mesh.triangleCount());
     bed->surfaceMaterial = material(surfaceMaterial);
+    if (!bed->resumeFrom.empty()) {
+      bed->nodalForces.assign(3 * setup.mesh.nodeCount(), 0.0);
+      // The walls with the surface, then the saved state over them; the scheme resumes from its saved state
+      // (nothing is exchanged before the next window).
+      bed->initialized = false;
+      bed->applyWallsWithSurface();
+      std::istringstream saved(resumedOwn);
+      bed->readOwnState(saved, setup);
+      return bed->subcycles;
+    }
     const double waitBefore = bed->participant->statistics().waitSeconds;
-    bed->coupling = railcosim::DemCouplingScheme::create(settings, *bed->participant, setup);
+    bed->coupling = railcosim::DemCouplingScheme::create(bed->settings, *bed->participant, setup);
     bed->waitTime += bed->participant->statistics().waitSeconds - waitBefore;
     bed->nodalForces.assign(3 * setup.mesh.nodeCount(), 0.0);
     bed->initialized = false; // the walls again, with the surface
-    bed->applyWalls();
+    bed->applyWallsWithSurface();
     poly::beginSurfaceWindow(*bed->coupling, bed->femDt, bed->windowStart, bed->windowVelocity);
     return bed->subcycles;
   }, -1);
@@ -449,7 +626,8 @@ int rcp_coupling_figures(rcp_bed* bed, double* f) {
                                         bed->workDem, bed->workFem, double(s.passes), double(s.lastWindowPasses),
                                         double(s.maxWindowPasses), double(s.unconvergedWindows), s.lastResidual,
                                         double(bed->loadedTriangles), bed->polyhedraTime, bed->mappingTime,
-                                        bed->bridgeTime, bed->waitTime, bed->checkpointTime, bed->time};
+                                        bed->bridgeTime, bed->waitTime, bed->checkpointTime, bed->time,
+                                        bed->restartTime, double(bed->checkpointsWritten)};
     std::copy(values, values + RCP_FIGURES, f);
     return 0;
   }, -1);
@@ -460,6 +638,51 @@ int rcp_surface_triangles(rcp_bed* bed, int32_t* triangles) {
     std::copy(bed->surfaceConnectivity.begin(), bed->surfaceConnectivity.end(), triangles);
     return bed->surfaceTriangles;
   }, -1);
+}
+
+int rcp_set_restart(rcp_bed* bed, const char* folder, const char* run, double every, const char* resumeFrom) {
+  return guarded("rcp_set_restart", [&] {
+    if (bed->coupling) throw std::logic_error("set restart checkpoints before rcp_connect");
+    if (!(every >= 0)) throw std::invalid_argument("the checkpoint interval must be >= 0 s");
+    bed->checkpointFolder = folder ? folder : "";
+    bed->checkpointRun = run ? run : "";
+    bed->checkpointEvery = every;
+    bed->resumeFrom = resumeFrom ? resumeFrom : "";
+    if (every > 0 && bed->checkpointFolder.empty())
+      throw std::invalid_argument("a checkpoint interval needs a checkpoint folder");
+    return 0;
+  }, -1);
+}
+
+int rcp_checkpoint_pending(rcp_bed* bed) { return bed->checkpointPending.empty() ? 0 : 1; }
+
+int rcp_complete_checkpoint(rcp_bed* bed, const char* files, const char* state, long size) {
+  return guarded("rcp_complete_checkpoint", [&] {
+    std::vector<std::string> paths;
+    std::istringstream lines(files ? files : "");
+    for (std::string line; std::getline(lines, line);)
+      if (!line.empty()) paths.push_back(line);
+    try {
+      bed->completeCheckpoint(paths, std::string(state, state + size));
+    } catch (const railcosim::Error& e) {
+      throw std::runtime_error("(" + bed->checkpointPending + "): " + e.what());
+    }
+    return 0;
+  }, -1);
+}
+
+long rcp_resumed_state(rcp_bed* bed, char* buffer, long capacity) {
+  return guarded("rcp_resumed_state", [&]() -> long {
+    if (bed->resumeFrom.empty() || !bed->coupling) throw std::logic_error("only in a resumed run, after rcp_connect");
+    if (!bed->resumedFilesRestored) {
+      railcosim::restoreCheckpointFiles(bed->resumeFrom, bed->resumedManifest, "dem",
+                                        std::filesystem::current_path().string());
+      bed->resumedFilesRestored = true;
+    }
+    const long size = static_cast<long>(bed->resumedScript.size());
+    if (buffer && capacity >= size) std::copy(bed->resumedScript.begin(), bed->resumedScript.end(), buffer);
+    return size;
+  }, -1L);
 }
 
 int rcp_finalize(rcp_bed* bed) {

@@ -74,11 +74,26 @@ int rcp_window(rcp_bed* bed);
 /* Figures of the coupling (RCP_FIGURES doubles, in this order): window length, subcycles, windows, surface nodes,
  * surface triangles, total force sent (3), surface force (3), interface work DEM, FEM, passes, last window passes,
  * max window passes, unconverged windows, last residual, loaded surface triangles, polyhedra time, mapping time,
- * bridge time, wait time, checkpoint time [s], time [s]. */
-#define RCP_FIGURES 25
+ * bridge time, wait time, checkpoint time [s], time [s], restart checkpoint time [s], restart checkpoints written
+ * (both over the whole run, a resumed one included). */
+#define RCP_FIGURES 27
 int rcp_coupling_figures(rcp_bed* bed, double* figures);
 /* The surface triangles (3 node indices each) into triangles (3 x surface triangles). */
 int rcp_surface_triangles(rcp_bed* bed, int32_t* triangles);
+/* Restart checkpoints (docs/protocol.md section 12), set before rcp_connect: `folder` holds them (both sides'),
+ * `run` identifies the run in each manifest, one is ordered every `every` seconds of simulated time (0: none) at
+ * the exchange that ends a window; `resume_from` (a checkpoint folder; "" for a fresh run) is checked whole by
+ * rcp_connect, which then goes on from it: the polyhedra system, the coupling scheme and this driver's counters. */
+int rcp_set_restart(rcp_bed* bed, const char* folder, const char* run, double every, const char* resume_from);
+/* 1 when the last rcp_window ordered a restart checkpoint, which waits for rcp_complete_checkpoint; else 0. */
+int rcp_checkpoint_pending(rcp_bed* bed);
+/* Completes the ordered checkpoint: this side's state, `state` (`size` bytes: the driving script's own, given back
+ * by rcp_resumed_state) and `files` (paths in the working folder, one a line, copied and put back on resume);
+ * commits it. */
+int rcp_complete_checkpoint(rcp_bed* bed, const char* files, const char* state, long size);
+/* In a resumed run, after rcp_connect: puts the checkpoint's DEM files back into the working folder (first call) and
+ * returns the size of the script's saved state, copied into `buffer` when `capacity` holds it. */
+long rcp_resumed_state(rcp_bed* bed, char* buffer, long capacity);
 /* Tells the FEM side the run is over. */
 int rcp_finalize(rcp_bed* bed);
 

@@ -42,16 +42,6 @@ std::vector<Vector3r> vectors(const std::vector<double>& values) {
   for (size_t i = 0; i + 2 < values.size(); i += 3) result.emplace_back(values[i], values[i + 1], values[i + 2]);
   return result;
 }
-
-/// An output file's path relative to the working folder (the run's results folder), where it goes back on resume.
-std::string relativeToWorkFolder(const std::string& path) {
-  namespace fs = std::filesystem;
-  const fs::path relative = fs::absolute(path).lexically_normal().lexically_relative(fs::current_path());
-  if (relative.empty() || *relative.begin() == "..")
-    throw std::invalid_argument("FemCouplingEngine.completeCheckpoint: " + path + " lies outside the working folder " +
-                                fs::current_path().string() + "; only the run's own outputs can be checkpointed");
-  return relative.string();
-}
 } // namespace
 
 FemCouplingEngine::Model FemCouplingEngine::surfaceModel() const {
@@ -385,9 +375,11 @@ std::string FemCouplingEngine::completeCheckpoint(const std::vector<std::string>
       if (!out) throw railcosim::Error("writing " + staging + "/" + stateFile + " failed (disk full?)");
     }
     written.push_back(railcosim::describeCheckpointFile(staging, stateFile, "dem"));
-    for (const std::string& path : files)
+    for (const std::string& path : files) {
+      const std::string restoreTo = railcosim::relativeToWorkFolder(path, "FemCouplingEngine.completeCheckpoint");
       written.push_back(railcosim::copyIntoCheckpoint(staging, path, std::filesystem::path(path).filename().string(),
-                                                      "dem", relativeToWorkFolder(path)));
+                                                      "dem", restoreTo));
+    }
     railcosim::CheckpointManifest manifest;
     manifest.name = checkpointPending;
     manifest.window = static_cast<std::uint64_t>(window);

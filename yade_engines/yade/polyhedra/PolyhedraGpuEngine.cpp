@@ -403,18 +403,7 @@ boost::python::object PolyhedraGpuEngine::restartState() {
   state.flag(bool(system));
   if (system) {
     try {
-      std::ostringstream current;
-      system->writeState(current);
-      state.bytes(current.str());
-      state.flag(system->hasSnapshot());
-      if (system->hasSnapshot()) {
-        std::ostringstream snapshot;
-        system->restoreSnapshot();
-        system->writeState(snapshot);
-        std::istringstream back(current.str());
-        system->readState(back);
-        state.bytes(snapshot.str());
-      }
+      system->writeRestartState(state);
     } catch (const railcosim::Error& e) {
       throw std::runtime_error(std::string("PolyhedraGpuEngine.restartState: ") + e.what());
     }
@@ -434,14 +423,7 @@ void PolyhedraGpuEngine::restoreRestartState(const boost::python::object& saved)
   if (!state.flag()) return; // saved before the system existed: it is built at the first step as then
   initialize();
   try {
-    const std::string current = state.bytes();
-    if (state.flag()) { // the snapshot first, kept by the system; then the current state over it
-      std::istringstream snapshot(state.bytes());
-      system->readState(snapshot);
-      system->saveSnapshot();
-    }
-    std::istringstream now(current);
-    system->readState(now);
+    system->readRestartState(state);
   } catch (const railcosim::Error& e) {
     throw std::runtime_error(std::string("PolyhedraGpuEngine.restoreRestartState: ") + e.what() +
                              "; resume with the case and parameters of the interrupted run");

@@ -3,6 +3,7 @@
 
 #include <cstdint>
 #include <string>
+#include <utility>
 #include <vector>
 
 namespace railcosim {
@@ -78,5 +79,17 @@ void restoreCheckpointFiles(const std::string& folder, const CheckpointManifest&
 /// An output file's path relative to the working folder (the run's results folder), where it goes back on resume
 /// (copyIntoCheckpoint's restoreTo). Throws std::invalid_argument, naming `caller`, for a path outside that folder.
 std::string relativeToWorkFolder(const std::string& path, const std::string& caller);
+
+/// What the DEM side adds to a checkpoint the FEM side has staged its files in.
+struct DemCheckpointContent {
+  std::string stateFile;                                     // written into the staging folder, side "dem"
+  std::vector<std::pair<std::string, std::string>> sections; // (section name, bytes) of the state file, in order
+  std::vector<std::string> files;                            // output files copied in, restored where they were
+  std::string caller;                                        // named in errors (relativeToWorkFolder)
+};
+/// Completes a staged checkpoint on the DEM side: writes the state file (StateWriter sections, then "end"), copies
+/// the files, and commits the manifest with the FEM side's `femFiles` (commitCheckpoint). Returns ROOT/NAME.
+std::string completeDemCheckpoint(const std::string& root, CheckpointManifest manifest, const DemCheckpointContent& content,
+                                  const std::vector<CheckpointFile>& femFiles);
 
 } // namespace railcosim

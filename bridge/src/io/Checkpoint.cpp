@@ -1,6 +1,7 @@
 // Checkpoint folders: staging, CRC-32 of each file, manifest.json written last, atomic commit, pruning, verification.
 #include "railcosim/Checkpoint.hpp"
 #include "railcosim/Error.hpp"
+#include "railcosim/StateStream.hpp"
 
 #include "protocol/Message.hpp"
 
@@ -330,6 +331,31 @@ std::string relativeToWorkFolder(const std::string& path, const std::string& cal
     throw std::invalid_argument(caller + ": " + path + " lies outside the working folder " +
                                 fs::current_path().string() + "; only the run's own outputs can be checkpointed");
   return relative.string();
+}
+
+std::string completeDemCheckpoint(const std::string& root, CheckpointManifest manifest, const DemCheckpointContent& content,
+                                  const std::vector<CheckpointFile>& femFiles) {
+  const std::string staging = stagingFolder(root, manifest.name);
+  std::vector<CheckpointFile> written;
+  {
+    std::ofstream out(staging + "/" + content.stateFile, std::ios::binary | std::ios::trunc);
+    StateWriter state(out);
+    for (const auto& [name, bytes] : content.sections) {
+      state.section(name);
+      state.bytes(bytes);
+    }
+    state.section("end");
+    out.close();
+    if (!out) throw Error("writing " + staging + "/" + content.stateFile + " failed (disk full?)");
+  }
+  written.push_back(describeCheckpointFile(staging, content.stateFile, "dem"));
+  for (const std::string& path : content.files)
+    written.push_back(copyIntoCheckpoint(staging, path, std::filesystem::path(path).filename().string(), "dem",
+                                         relativeToWorkFolder(path, content.caller)));
+  manifest.files = written;
+  manifest.files.insert(manifest.files.end(), femFiles.begin(), femFiles.end());
+  commitCheckpoint(root, manifest);
+  return (std::filesystem::path(root) / manifest.name).string();
 }
 
 } // namespace railcosim

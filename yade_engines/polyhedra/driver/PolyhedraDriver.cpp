@@ -279,37 +279,18 @@ struct rcp_bed {
   std::string completeCheckpoint(const std::vector<std::string>& files, const std::string& script) {
     if (checkpointPending.empty()) throw std::logic_error("no restart checkpoint was ordered at the last window");
     const auto start = Clock::now();
-    const std::string staging = railcosim::stagingFolder(checkpointFolder, checkpointPending);
-    std::vector<railcosim::CheckpointFile> written;
-    {
-      std::ofstream out(staging + "/" + stateFile, std::ios::binary | std::ios::trunc);
-      railcosim::StateWriter state(out);
-      std::ostringstream own;
-      writeOwnState(own);
-      state.section("polyhedra driver");
-      state.bytes(own.str());
-      state.section("driver script");
-      state.bytes(script);
-      state.section("end");
-      out.close();
-      if (!out) throw railcosim::Error("writing " + staging + "/" + stateFile + " failed (disk full?)");
-    }
-    written.push_back(railcosim::describeCheckpointFile(staging, stateFile, "dem"));
-    for (const std::string& path : files) {
-      const std::string restoreTo = railcosim::relativeToWorkFolder(path, "rcp_complete_checkpoint");
-      written.push_back(railcosim::copyIntoCheckpoint(staging, path, std::filesystem::path(path).filename().string(),
-                                                      "dem", restoreTo));
-    }
+    std::ostringstream own;
+    writeOwnState(own);
     railcosim::CheckpointManifest manifest;
     manifest.name = checkpointPending;
     manifest.window = static_cast<std::uint64_t>(window);
     manifest.time = time;
     manifest.scheme = railcosim::toString(coupling->scheme());
     manifest.run = checkpointRun;
-    manifest.files = written;
-    manifest.files.insert(manifest.files.end(), femFiles.begin(), femFiles.end());
-    railcosim::commitCheckpoint(checkpointFolder, manifest);
-    const std::string folder = (std::filesystem::path(checkpointFolder) / checkpointPending).string();
+    const std::string folder = railcosim::completeDemCheckpoint(
+        checkpointFolder, manifest,
+        {stateFile, {{"polyhedra driver", own.str()}, {"driver script", script}}, files, "rcp_complete_checkpoint"},
+        femFiles);
     checkpointPending.clear();
     femFiles.clear();
     restartTime += secondsSince(start);

@@ -355,40 +355,25 @@ std::string FemCouplingEngine::completeCheckpoint(const std::vector<std::string>
   if (checkpointPending.empty())
     throw std::runtime_error("FemCouplingEngine.completeCheckpoint: no restart checkpoint was ordered at this step.");
   const auto start = Clock::now();
-  const std::string staging = railcosim::stagingFolder(checkpointFolder, checkpointPending);
-  std::vector<railcosim::CheckpointFile> written;
   try {
-    {
-      std::ofstream out(staging + "/" + stateFile, std::ios::binary | std::ios::trunc);
-      railcosim::StateWriter state(out);
-      std::ostringstream own, sceneState;
-      writeOwnState(own);
-      SceneCheckpoint::writeBetweenSteps(*scene, sceneState);
-      state.section("dem coupling engine");
-      state.bytes(own.str());
-      state.section("dem scene");
-      state.bytes(sceneState.str());
-      state.section("dem python");
-      state.bytes(bytesFromPython(pythonState, "FemCouplingEngine: completeCheckpoint's pythonState"));
-      state.section("end");
-      out.close();
-      if (!out) throw railcosim::Error("writing " + staging + "/" + stateFile + " failed (disk full?)");
-    }
-    written.push_back(railcosim::describeCheckpointFile(staging, stateFile, "dem"));
-    for (const std::string& path : files) {
-      const std::string restoreTo = railcosim::relativeToWorkFolder(path, "FemCouplingEngine.completeCheckpoint");
-      written.push_back(railcosim::copyIntoCheckpoint(staging, path, std::filesystem::path(path).filename().string(),
-                                                      "dem", restoreTo));
-    }
+    std::ostringstream own, sceneState;
+    writeOwnState(own);
+    SceneCheckpoint::writeBetweenSteps(*scene, sceneState);
     railcosim::CheckpointManifest manifest;
     manifest.name = checkpointPending;
     manifest.window = static_cast<std::uint64_t>(window);
     manifest.time = scene->time - timeAtConnect;
     manifest.scheme = railcosim::toString(coupling->scheme());
     manifest.run = checkpointRun;
-    manifest.files = written;
-    manifest.files.insert(manifest.files.end(), femFiles.begin(), femFiles.end());
-    railcosim::commitCheckpoint(checkpointFolder, manifest);
+    railcosim::completeDemCheckpoint(
+        checkpointFolder, manifest,
+        {stateFile,
+         {{"dem coupling engine", own.str()},
+          {"dem scene", sceneState.str()},
+          {"dem python", bytesFromPython(pythonState, "FemCouplingEngine: completeCheckpoint's pythonState")}},
+         files,
+         "FemCouplingEngine.completeCheckpoint"},
+        femFiles);
   } catch (const railcosim::Error& e) {
     throw std::runtime_error("FemCouplingEngine.completeCheckpoint (" + checkpointPending + "): " + e.what());
   }

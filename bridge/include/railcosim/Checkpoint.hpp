@@ -80,6 +80,21 @@ void restoreCheckpointFiles(const std::string& folder, const CheckpointManifest&
 /// (copyIntoCheckpoint's restoreTo). Throws std::invalid_argument, naming `caller`, for a path outside that folder.
 std::string relativeToWorkFolder(const std::string& path, const std::string& caller);
 
+/// Refuses a checkpoint that does not fit the resuming run: CheckpointError "checkpoint FOLDER: WHAT; resume with the
+/// case and parameters of the interrupted run".
+[[noreturn]] void refuseResume(const std::string& folder, const std::string& what);
+/// The coupling a DEM side's state was saved under, read back from its state file.
+struct SavedCoupling {
+  double femDt = 0.0;             // the FEM side's window length [s]
+  std::int64_t subcycles = 0;     // DEM steps per window
+  std::vector<double> triangles;  // the interface's triangles, 3 node indices each
+  std::int64_t window = 0;        // windows completed
+};
+/// Refuses (refuseResume) a saved coupling whose window length, steps per window or triangles differ from this run's,
+/// or whose window is not the manifest's.
+void checkSavedCoupling(const std::string& folder, const SavedCoupling& saved, double femDt, std::int64_t subcycles,
+                        const std::vector<double>& triangles, std::uint64_t manifestWindow);
+
 /// What the DEM side adds to a checkpoint the FEM side has staged its files in.
 struct DemCheckpointContent {
   std::string stateFile;                                     // written into the staging folder, side "dem"

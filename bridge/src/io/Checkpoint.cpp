@@ -333,6 +333,20 @@ std::string relativeToWorkFolder(const std::string& path, const std::string& cal
   return relative.string();
 }
 
+void refuseResume(const std::string& folder, const std::string& what) {
+  throw CheckpointError("checkpoint " + folder + ": " + what + "; resume with the case and parameters of the interrupted run");
+}
+
+void checkSavedCoupling(const std::string& folder, const SavedCoupling& saved, double femDt, std::int64_t subcycles,
+                        const std::vector<double>& triangles, std::uint64_t manifestWindow) {
+  if (saved.femDt != femDt) refuseResume(folder, "the FEM side's window length differs from the saved one");
+  if (saved.subcycles != subcycles) refuseResume(folder, "the DEM steps per window differ from the saved ones");
+  if (saved.triangles != triangles) refuseResume(folder, "the FEM side's interface triangles differ from the saved ones");
+  if (static_cast<std::uint64_t>(saved.window) != manifestWindow)
+    refuseResume(folder, "the DEM state is of window " + std::to_string(saved.window) + ", the manifest's of window " +
+                             std::to_string(manifestWindow));
+}
+
 std::string completeDemCheckpoint(const std::string& root, CheckpointManifest manifest, const DemCheckpointContent& content,
                                   const std::vector<CheckpointFile>& femFiles) {
   const std::string staging = stagingFolder(root, manifest.name);

@@ -233,19 +233,17 @@ struct rcp_bed {
   void readOwnState(std::istream& in, const railcosim::InterfaceSetup& setup) {
     const std::string source = resumeFrom + "/" + stateFile;
     railcosim::StateReader state(in, source);
-    auto refuse = [&](const std::string& what) {
-      throw railcosim::CheckpointError("checkpoint " + resumeFrom + ": " + what +
-                                       "; resume with the case and parameters of the interrupted run");
-    };
+    auto refuse = [&](const std::string& what) { railcosim::refuseResume(resumeFrom, what); };
     state.section("polyhedra driver");
-    if (state.real() != femDt) refuse("the FEM side's window length differs from the saved one");
-    if (state.i64() != subcycles) refuse("the DEM steps per window differ from the saved ones");
-    if (state.reals() != std::vector<double>(surfaceConnectivity.begin(), surfaceConnectivity.end()))
-      refuse("the FEM side's interface triangles differ from the saved ones");
-    window = state.i64();
-    if (static_cast<std::uint64_t>(window) != resumedManifest.window)
-      refuse("the DEM state is of window " + std::to_string(window) + ", the manifest's of window " +
-             std::to_string(resumedManifest.window));
+    railcosim::SavedCoupling saved;
+    saved.femDt = state.real();
+    saved.subcycles = state.i64();
+    saved.triangles = state.reals();
+    saved.window = state.i64();
+    railcosim::checkSavedCoupling(resumeFrom, saved, femDt, subcycles,
+                                  std::vector<double>(surfaceConnectivity.begin(), surfaceConnectivity.end()),
+                                  resumedManifest.window);
+    window = saved.window;
     const std::vector<double> clock = state.reals();
     if (clock.size() != 7) state.fail("7 clock and work figures expected");
     time = clock[0], meanContacts = clock[1], workDem = clock[2], workFem = clock[3];

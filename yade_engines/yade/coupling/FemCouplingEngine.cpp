@@ -463,22 +463,19 @@ long FemCouplingEngine::engineIndex(const Engine* engine) const {
 void FemCouplingEngine::readOwnState(std::istream& in, const railcosim::InterfaceSetup& setup) {
   const std::string source = resumeFrom + "/" + stateFile;
   railcosim::StateReader state(in, source);
-  auto refuse = [&](const std::string& what) {
-    throw railcosim::CheckpointError("checkpoint " + resumeFrom + ": " + what +
-                                     "; resume with the case and parameters of the interrupted run");
-  };
+  auto refuse = [&](const std::string& what) { railcosim::refuseResume(resumeFrom, what); };
   state.section("fem coupling engine");
-  if (state.real() != femDt) refuse("the FEM side's window length differs from the saved one");
-  if (state.i64() != subcycles) refuse("the DEM steps per window differ from the saved ones");
+  railcosim::SavedCoupling saved;
+  saved.femDt = state.real();
+  saved.subcycles = state.i64();
   timeAtConnect = state.real();
+  saved.triangles = state.reals();
+  saved.window = state.i64();
   std::vector<double> connectivity;
   for (const Vector3i& t : triangles)
     connectivity.insert(connectivity.end(), {double(t[0]), double(t[1]), double(t[2])});
-  if (state.reals() != connectivity) refuse("the FEM side's interface triangles differ from the saved ones");
-  window = state.i64();
-  if (static_cast<std::uint64_t>(window) != resumedManifest.window)
-    refuse("the DEM state is of window " + std::to_string(window) + ", the manifest's of window " +
-           std::to_string(resumedManifest.window));
+  railcosim::checkSavedCoupling(resumeFrom, saved, femDt, subcycles, connectivity, resumedManifest.window);
+  window = saved.window;
   exchanges = state.i64();
   stepsInWindow = state.i64();
   surfaceTouched = state.flag();

@@ -18,6 +18,7 @@
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
+#include <filesystem>
 #include <fstream>
 #include <stdexcept>
 #include <memory>
@@ -91,6 +92,19 @@ Options parse(int argc, char** argv) {
     }
   }
   if (o.sizes.empty()) o.sizes = {10000};
+  if (!o.exportPrefix.empty()) {
+    // Checked before the preparation (minutes at 1e6 stones), not after it.
+    const std::filesystem::path folder = std::filesystem::path(o.exportPrefix).parent_path();
+    if (!o.settled) {
+      std::fprintf(stderr, "--export: only the settled bed (--bed settled) is at rest under a lid; the packing bed is "
+                           "still falling\n");
+      std::exit(2);
+    }
+    if (!folder.empty() && !std::filesystem::is_directory(folder)) {
+      std::fprintf(stderr, "--export: no folder %s for %s-N.csv\n", folder.c_str(), o.exportPrefix.c_str());
+      std::exit(2);
+    }
+  }
   for (const long n : o.sizes)
     if (n < 1) {
       std::fprintf(stderr, "--n: a number of stones >= 1, not %ld\n", n);
@@ -327,7 +341,7 @@ void exportBed(const std::string& path, const PolyhedraSystem& system, const Bed
 
 } // namespace
 
-int main(int argc, char** argv) {
+int main(int argc, char** argv) try {
   const Options options = parse(argc, argv);
   std::vector<std::string> records;
   std::printf("%-30s %10s %6s %8s %10s %14s %14s %10s %10s\n", "device", "stones", "steps", "wall_s", "ms/step",
@@ -407,4 +421,7 @@ int main(int argc, char** argv) {
   if (!options.json.empty()) std::ofstream(options.json) << list;
   std::printf("%s", list.c_str());
   return 0;
+} catch (const std::exception& e) {
+  std::fprintf(stderr, "polyhedra_bench: %s\n", e.what());
+  return 1;
 }

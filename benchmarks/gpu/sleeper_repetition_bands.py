@@ -27,6 +27,10 @@ def series(paths):
     time, load, settlement, pressure = None, None, [], []
     for path in paths:
         with h5py.File(path, "r") as f:
+            missing = [name for name in ("fem/time", "fem/applied_load", "fem/settlement", "dem/sensor_pressure")
+                       if name not in f]
+            if missing:
+                raise SystemExit(f"{path}: no {', '.join(missing)} (not a sleeper_on_ballast run's timeseries.h5)")
             t = f["fem/time"][1:]  # the FEM's history starts at t = 0, the DEM's at the end of the first window
             if time is None:
                 time, load = t, f["fem/applied_load"][1:]

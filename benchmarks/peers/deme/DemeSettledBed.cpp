@@ -72,13 +72,25 @@ int main(int argc, char** argv) try {
   if (argc < 2) throw std::runtime_error("usage: deme_settled_bed BED.csv [--steps S] [--warmup W] [--json FILE]");
   std::string bedPath = argv[1], json;
   int steps = 200, warmup = 20;
-  for (int k = 2; k + 1 < argc; k += 2) {
+  auto count = [](const std::string& option, const std::string& text) {
+    std::size_t used = 0;
+    int value = -1;
+    try {
+      value = std::stoi(text, &used);
+    } catch (const std::exception&) {
+    }
+    if (used != text.size() || value < 0) throw std::runtime_error(option + ": a whole number >= 0, not '" + text + "'");
+    return value;
+  };
+  for (int k = 2; k < argc; k += 2) {
     const std::string a = argv[k];
-    if (a == "--steps") steps = std::stoi(argv[k + 1]);
-    else if (a == "--warmup") warmup = std::stoi(argv[k + 1]);
+    if (k + 1 >= argc) throw std::runtime_error("missing value after " + a);
+    if (a == "--steps") steps = count(a, argv[k + 1]);
+    else if (a == "--warmup") warmup = count(a, argv[k + 1]);
     else if (a == "--json") json = argv[k + 1];
     else throw std::runtime_error("unknown option " + a);
   }
+  if (steps < 1) throw std::runtime_error("--steps: at least 1");
   const BedFile bed = readBed(bedPath);
   const double dt = bed.get("time_step_s"), boxX = bed.get("box_x_m"), boxY = bed.get("box_y_m");
   const double lid = bed.get("lid_z_m");

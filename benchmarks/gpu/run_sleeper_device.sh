@@ -41,7 +41,7 @@ export LD_LIBRARY_PATH="$rt/driverlib${LD_LIBRARY_PATH:+:$LD_LIBRARY_PATH}"
 export FF_LOADPATH="$rt/freefem/plugins;./"
 export FF_INCLUDEPATH="$root/freefem_scripts/lib;$rt/freefem/idp;./"
 export RAILCOSIM_ROOT=$root RAILCOSIM_CACHE="${RAILCOSIM_CACHE:-$out/cache}" PYTHONPATH="$root/python"
-export RAILCOSIM_POLYHEDRA_DRIVER="$rt/librailcosim_polyhedra_driver.so"
+export RAILCOSIM_POLYHEDRA_DRIVER="$rt/librailcosim_polyhedra_driver.so" RAILCOSIM_CHECKPOINT_TOOL="$rt/railcosim_checkpoint"
 {
   nvidia-smi --query-gpu=name,driver_version,memory.total --format=csv,noheader || true
   echo "cores: $(nproc); python: $(${PYTHON:-python3} --version)"

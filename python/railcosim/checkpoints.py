@@ -42,7 +42,10 @@ def solver_environment(run_folder, identity, every_s=None, resume_from=None):
 
 
 def tool():
-    return os.path.join(os.environ.get("RAILCOSIM_BUILD", "build"), "bridge", "dummies", "railcosim_checkpoint")
+    """The bridge's checkpoint tool: RAILCOSIM_CHECKPOINT_TOOL (a machine without the build, e.g. the GPU machine's
+    runtime archive), else the build's."""
+    return os.environ.get("RAILCOSIM_CHECKPOINT_TOOL") or os.path.join(
+        os.environ.get("RAILCOSIM_BUILD", "build"), "bridge", "dummies", "railcosim_checkpoint")
 
 
 def latest(run_folder):

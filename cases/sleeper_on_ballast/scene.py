@@ -146,18 +146,42 @@ def mean_stone_volume(scene, samples=20000):
 
 
 # ---------------------------------------------------------------------------------------------------
-# Gradation: Ullrich 2022's normal distribution of the characteristic length, truncated.
+# Gradation: the characteristic length of Ullrich 2022 §6.2, normal (truncated) or piece-wise constant.
 # ---------------------------------------------------------------------------------------------------
 def sample_sizes(gradation, rng, count):
-    """`count` characteristic lengths [m] from the normal distribution (mean, std) truncated to [min, max]
-    (rejection), rounded to SIZE_QUANTUM of the mean so that stones share shape templates."""
-    mean, std, low, high = (gradation[k] for k in ("mean", "std", "min", "max"))
-    sizes = np.empty(0)
-    while len(sizes) < count:
-        draw = rng.normal(mean, std, size=2 * (count - len(sizes)) + 16)
-        sizes = np.concatenate([sizes, draw[(draw >= low) & (draw <= high)]])
-    quantum = SIZE_QUANTUM * mean
+    """`count` characteristic lengths [m] drawn from the gradation, rounded to SIZE_QUANTUM of its mean so that
+    stones share shape templates: "normal": the normal distribution (mean, std) truncated to [min, max] (rejection);
+    "piecewise": a piece-wise constant density, bin k of [edges[k], edges[k+1]] with number fraction fractions[k]
+    (the bin by inversion of the cumulative fractions, then uniform in it)."""
+    low, high = gradation["min"], gradation["max"]
+    if gradation["distribution"] == "piecewise":
+        edges = np.asarray(gradation["edges"])
+        cumulative = np.cumsum(gradation["fractions"])
+        bins = np.minimum(np.searchsorted(cumulative / cumulative[-1], rng.random(count), side="right"),
+                          len(edges) - 2)
+        sizes = edges[bins] + rng.random(count) * (edges[bins + 1] - edges[bins])
+    else:
+        mean, std = gradation["mean"], gradation["std"]
+        sizes = np.empty(0)
+        while len(sizes) < count:
+            draw = rng.normal(mean, std, size=2 * (count - len(sizes)) + 16)
+            sizes = np.concatenate([sizes, draw[(draw >= low) & (draw <= high)]])
+    quantum = SIZE_QUANTUM * gradation["mean"]
     return np.clip(np.round(sizes[:count] / quantum) * quantum, low, high)
+
+
+def gradation_of(p, scale):
+    """The gradation of p with every length times `scale`: {distribution, mean, std, min, max} and for "piecewise"
+    {edges, fractions}, whose mean and std are the piece-wise constant density's (uniform in each bin)."""
+    if p["size_distribution"] != "piecewise":
+        return {"distribution": "normal", **{k: scale * p[f"stone_size_{k}_m"] for k in ("mean", "std", "min", "max")}}
+    edges = scale * np.asarray(p["stone_size_edges_m"], float)
+    fractions = np.asarray(p["stone_size_fractions"], float) / math.fsum(p["stone_size_fractions"])
+    low, high = edges[:-1], edges[1:]
+    mean = float(np.sum(fractions * (low + high) / 2))
+    second = float(np.sum(fractions * (low * low + low * high + high * high) / 3))
+    return {"distribution": "piecewise", "mean": mean, "std": math.sqrt(max(0.0, second - mean * mean)),
+            "min": float(edges[0]), "max": float(edges[-1]), "edges": edges.tolist(), "fractions": fractions.tolist()}
 
 
 def seed_stone_count(p):
@@ -181,7 +205,7 @@ def size_scale(p):
 # ---------------------------------------------------------------------------------------------------
 def _scene_with_scale(p, scale):
     length, width = p["bed_length_m"], p["bed_width_m"]
-    gradation = {k: scale * p[f"stone_size_{k}_m"] for k in ("mean", "std", "min", "max")}
+    gradation = gradation_of(p, scale)
     centre = (0.5 * length, 0.5 * width)
     height = p["bed_height_m"]
     sensor_top = height - p["sensor_depth_m"]
@@ -229,7 +253,9 @@ def check(p):
         problems.append(f"bed_width_m={width:g}: the sleeper (0.2 m) and the sensors (0.22 m) need at least 0.27 m")
     if p["sensor_depth_m"] + SENSOR_SIZE[2] > p["bed_height_m"] - 0.1:
         problems.append(f"sensor_depth_m={p['sensor_depth_m']:g}: the sensors must lie above 0.1 m of ballast")
-    if not p["stone_size_min_m"] <= p["stone_size_mean_m"] <= p["stone_size_max_m"]:
+    if p["size_distribution"] == "piecewise":
+        problems += _piecewise_problems(p["stone_size_edges_m"], p["stone_size_fractions"])
+    elif not p["stone_size_min_m"] <= p["stone_size_mean_m"] <= p["stone_size_max_m"]:
         problems.append("stone sizes need stone_size_min_m <= stone_size_mean_m <= stone_size_max_m")
     if 0 < p["triangles_per_stone"] < 4:
         problems.append(f"triangles_per_stone={p['triangles_per_stone']}: a stone needs at least 4 triangles (a "
@@ -239,6 +265,21 @@ def check(p):
                         f"even number of triangles (2V - 4 for V vertices); use {p['triangles_per_stone'] - 1} or "
                         f"{p['triangles_per_stone'] + 1}")
     return problems
+
+
+def _piecewise_problems(edges, fractions):
+    """What is wrong with a piece-wise constant gradation's bins (edges [m]) and number fractions, one message each."""
+    numbers = lambda values: all(isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v)
+                                 for v in values)
+    if len(edges) < 2 or not numbers(edges) or edges[0] <= 0 or any(b <= a for a, b in zip(edges, edges[1:])):
+        return [f"stone_size_edges_m={edges}: the bins' edges [m], at least two, positive and increasing"]
+    if len(fractions) != len(edges) - 1 or not numbers(fractions):
+        return [f"stone_size_fractions={fractions}: one number fraction per bin ({len(edges) - 1} for "
+                f"{len(edges)} edges)"]
+    if min(fractions) < 0 or abs(math.fsum(fractions) - 1.0) > 1e-6:
+        return [f"stone_size_fractions={fractions}: number fractions, non-negative and summing to 1 "
+                f"(sum {math.fsum(fractions):.6g})"]
+    return []
 
 
 # ---------------------------------------------------------------------------------------------------
@@ -452,7 +493,9 @@ BED_PARAMETERS = ("bed_length_m", "bed_width_m", "bed_height_m", "sensor_depth_m
 # Bed parameters added after beds were first cached, each with the value every bed made before it existed was made
 # with: such a parameter enters the key only when it differs from that value, so that the beds cached before it (CI
 # keeps its bed cache between runs) keep their keys. These values are history: never change them.
-ADDED_BED_PARAMETERS = {"triangles_per_stone": 0}
+ADDED_BED_PARAMETERS = {"triangles_per_stone": 0, "size_distribution": "normal"}
+# The bins of a piece-wise constant gradation: in the key of the beds drawn from it (size_distribution = "piecewise").
+PIECEWISE_PARAMETERS = ("stone_size_edges_m", "stone_size_fractions")
 
 
 def bed_key(p):
@@ -461,16 +504,18 @@ def bed_key(p):
 
 
 def bed_values(p):
-    """What defines a bed: the file layout (BED_FORMAT), the parameters of BED_PARAMETERS and those of
-    ADDED_BED_PARAMETERS that differ from their value before they existed."""
+    """What defines a bed: the file layout (BED_FORMAT), the parameters of BED_PARAMETERS, those of
+    ADDED_BED_PARAMETERS that differ from their value before they existed, and a piece-wise gradation's bins."""
     values = {"format": BED_FORMAT, **{name: p[name] for name in BED_PARAMETERS}}
     values.update({name: p[name] for name, before in ADDED_BED_PARAMETERS.items() if p[name] != before})
+    if p["size_distribution"] == "piecewise":
+        values.update({name: p[name] for name in PIECEWISE_PARAMETERS})
     return values
 
 
 def bed_parameters(p):
     """The parameters of p that define its bed (BED_PARAMETERS and ADDED_BED_PARAMETERS), as the bed file records them."""
-    return {name: p[name] for name in BED_PARAMETERS + tuple(ADDED_BED_PARAMETERS)}
+    return {name: p[name] for name in BED_PARAMETERS + tuple(ADDED_BED_PARAMETERS) + PIECEWISE_PARAMETERS}
 
 
 def bed_path(p):
@@ -484,7 +529,9 @@ def describe(p):
     g = scene["gradation"]
     count = (1.0 - ASSUMED_POROSITY) * math.prod(scene["bed"]) / mean_stone_volume(scene)
     ends = pattern_phase_ends(scene["load_pattern"])
-    lines = [f"bed {scene['bed'][0]:g} x {scene['bed'][1]:g} x {scene['bed'][2]:g} m, stones: normal mean {g['mean']:.4f} m, "
+    bins = (" (bins " + ", ".join(f"{a:.4f}-{b:.4f}: {f:.3f}" for a, b, f in zip(g["edges"], g["edges"][1:], g["fractions"]))
+            + ")") if g["distribution"] == "piecewise" else ""
+    lines = [f"bed {scene['bed'][0]:g} x {scene['bed'][1]:g} x {scene['bed'][2]:g} m, stones: {g['distribution']}{bins} mean {g['mean']:.4f} m, "
              f"std {g['std']:.4f} m in [{g['min']:.4f}, {g['max']:.4f}] (x{scene['size_scale']:.3f} of the seed's), "
              f"r_d = {scene['dilation_fraction']:g} x size; about {count:.0f} stones at porosity {ASSUMED_POROSITY:g} "
              f"(seed's sizes: {seed_stone_count(p):.0f})",

@@ -483,6 +483,7 @@ def save(path, p, scene, bed, log, seat_height, time_step, plates, driver):
         f.attrs["porosity"] = porosity
         f.attrs["size_scale"] = scene["size_scale"]
         f.attrs["driver"] = driver
+        f.attrs["preparation_version"] = sc.PREPARATION_VERSION
         f.attrs["units"] = "SI (m, s, N); orientation w,x,y,z of the body frame; kind 0 stone, 1 sensor"
     os.replace(temporary, path)
     say(f"bed saved: {path} ({int(np.sum(stones))} stones, porosity {porosity:.3f}, sleeper bottom at {seat_height:.4f} m)")
@@ -522,7 +523,8 @@ def main(argv, Stage):
               "porosity": float(attrs["porosity"]), "seat_height_m": float(attrs["seat_height_m"]),
               "size_scale": float(attrs["size_scale"]), **stone_figures(sc.build(p), bed),
               "stage_log": json.loads(attrs["stage_log"]),
-              "driver": attrs.get("driver", "yade"), "wall_time_s": time.monotonic() - WALL_START}
+              "driver": attrs.get("driver", "yade"), "preparation_version": int(attrs.get("preparation_version", 1)),
+              "wall_time_s": time.monotonic() - WALL_START}
     if out:
         with open(os.path.join(out, "bed.json"), "w") as f:
             json.dump(record, f, indent=2)

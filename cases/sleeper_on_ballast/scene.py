@@ -41,6 +41,16 @@ ASSUMED_POROSITY = 0.40
 SIZE_QUANTUM = 1.0 / 40.0             # sizes are rounded to 1/40 of the mean: shared templates, 2.5 % steps
 
 BED_FORMAT = 1                        # version of the bed file layout (part of the cache key)
+# Version of the bed that a parameter set makes, part of the cache key (bed_values). Bump it by hand with any change
+# that makes another bed from the same parameters: preparation.py's stages, plate servo and trims, scene.py's draws,
+# templates and placement, the drivers' stage engines, the polyhedra library's contact law or integration. Cached beds
+# of the older code are then prepared again instead of being reused without notice. It enters the key only when it is
+# not 1, the version of every bed cached before it existed, so that those keep their keys: a bump re-prepares beds
+# once, and until then the desk's and CI's kept caches (~/.cache/railcosim/beds) stay valid. Not a hash of the
+# sources: a comment, a log line or a load-run helper edited in these files would re-prepare every cached bed (16 min
+# for the default bed on 2 cores, 7 min for the seed's on the GPU), and a hash of the Python alone would miss the C++
+# library that moves the stones.
+PREPARATION_VERSION = 1
 
 
 # ---------------------------------------------------------------------------------------------------
@@ -505,11 +515,14 @@ def bed_key(p):
 
 def bed_values(p):
     """What defines a bed: the file layout (BED_FORMAT), the parameters of BED_PARAMETERS, those of
-    ADDED_BED_PARAMETERS that differ from their value before they existed, and a piece-wise gradation's bins."""
+    ADDED_BED_PARAMETERS that differ from their value before they existed, a piece-wise gradation's bins, and the
+    preparation code's version (PREPARATION_VERSION, from 2 on)."""
     values = {"format": BED_FORMAT, **{name: p[name] for name in BED_PARAMETERS}}
     values.update({name: p[name] for name, before in ADDED_BED_PARAMETERS.items() if p[name] != before})
     if p["size_distribution"] == "piecewise":
         values.update({name: p[name] for name in PIECEWISE_PARAMETERS})
+    if PREPARATION_VERSION != 1:
+        values["preparation"] = PREPARATION_VERSION
     return values
 
 

@@ -276,9 +276,10 @@ class GradationTest(unittest.TestCase):
 class BedKeyTest(unittest.TestCase):
     """scene.bed_key: a new parameter at the value every earlier bed was made with keeps the earlier beds' keys."""
 
-    # Keys of beds cached before triangles_per_stone existed (the default and the --smoke parameters): their files
-    # are in the bed caches of the desk and of CI; a key that changes would prepare them again (106 s for the smoke
-    # bed, 16 min for the default one on 2 cores) while the bed they hold is the same.
+    # Keys of beds cached before triangles_per_stone, size_distribution and PREPARATION_VERSION existed (the default
+    # and the --smoke parameters): their files are in the bed caches of the desk and of CI; a key that changes would
+    # prepare them again (106 s for the smoke bed, 16 min for the default one on 2 cores) while the bed they hold is
+    # the same.
     KEYS = {False: "59ef077616443c1b", True: "52df4b31404f9603"}
 
     def test_keys_of_earlier_beds_kept(self):
@@ -296,6 +297,19 @@ class BedKeyTest(unittest.TestCase):
         for p, name, value in changed:
             with self.subTest(name=name):
                 self.assertNotEqual(sc.bed_key({**p, name: value}), sc.bed_key(p))
+
+    def test_preparation_version_enters_the_key(self):
+        """A bumped PREPARATION_VERSION gives every parameter set another key (older code's beds are not reused);
+        at 1 the keys are those above."""
+        p = case_parameters()
+        saved = sc.PREPARATION_VERSION
+        try:
+            sc.PREPARATION_VERSION = 2
+            bumped = sc.bed_key(p)
+        finally:
+            sc.PREPARATION_VERSION = saved
+        self.assertNotEqual(bumped, self.KEYS[False])
+        self.assertEqual(sc.bed_key(p), self.KEYS[False])
 
     def test_unused_bins_stay_out_of_the_key(self):
         """The piece-wise bins do not define a bed of the normal gradation: changing them keeps its key."""

@@ -273,6 +273,34 @@ class GradationTest(unittest.TestCase):
         self.assertEqual(parameters.check_parameters(p, CONFIG) + sc.check(p), [])
 
 
+class TemplateMassTest(unittest.TestCase):
+    """The polyhedra library's own mass of the reduced stones (its integration of the dilated polyhedron) against the
+    Steiner volume the scene sizes the bed with (scene.stone_volume), at every resolution: one stone of each template
+    and size class handed to the standalone driver (railcosim.polyhedra_driver, the CPU reference)."""
+
+    def test_library_mass_is_the_steiner_volume(self):
+        """Relative tolerance 1e-6: the library integrates the dilated volume exactly up to round-off (the Steiner
+        formula is exact for a convex core); what differs is the order of the sums."""
+        from railcosim.polyhedra_driver import PolyhedraBed
+        for n in (4, 10, 20, 30, 0):
+            p = case_parameters(f"triangles_per_stone={n}", "polyhedra_backend=cpu", smoke=True)
+            scene = sc.build(p)
+            shapes = range(len(sc.templates(scene)))
+            sizes = (scene["gradation"]["min"], scene["gradation"]["max"])
+            engine = PolyhedraBed(1e-6, (1e10, 0.27, 0.2, 0.6), backend="cpu")
+            for k, (shape, size) in enumerate(itertools.product(shapes, sizes)):
+                core, r_d = sc.stone_core(scene, shape, size)
+                engine.add_stone(core, r_d, p["particle_density"], (0.5 * k, 0.0, 1.0), (1.0, 0.0, 0.0, 0.0))
+            engine.set_walls(np.array([[(0, 0, 0), (10, 0, 0), (0, 10, 0)]], float), np.zeros(1, np.int32),
+                             [(1e10, 0.27, 0.2, 0.0)])
+            engine.initialize()
+            masses = engine.states()[4]
+            steiner = np.array([sc.stone_volume(scene, shape, size) * p["particle_density"]
+                                for shape, size in itertools.product(shapes, sizes)])
+            with self.subTest(n=n):
+                np.testing.assert_allclose(masses, steiner, rtol=1e-6)
+
+
 class BedKeyTest(unittest.TestCase):
     """scene.bed_key: a new parameter at the value every earlier bed was made with keeps the earlier beds' keys."""
 

@@ -475,7 +475,7 @@ def save(path, p, scene, bed, log, seat_height, time_step, plates, driver):
         for name, history in plates.items():
             f.create_dataset(f"plate/{name}", data=history)  # t, height, force, target
         f.attrs["key"] = sc.bed_key(p)
-        f.attrs["parameters"] = json.dumps({k: p[k] for k in sc.BED_PARAMETERS})
+        f.attrs["parameters"] = json.dumps(sc.bed_parameters(p))
         f.attrs["stage_log"] = json.dumps(log)
         f.attrs["seat_height_m"] = seat_height
         f.attrs["time_step_s"] = time_step
@@ -483,6 +483,7 @@ def save(path, p, scene, bed, log, seat_height, time_step, plates, driver):
         f.attrs["porosity"] = porosity
         f.attrs["size_scale"] = scene["size_scale"]
         f.attrs["driver"] = driver
+        f.attrs["preparation_version"] = sc.PREPARATION_VERSION
         f.attrs["units"] = "SI (m, s, N); orientation w,x,y,z of the body frame; kind 0 stone, 1 sensor"
     os.replace(temporary, path)
     say(f"bed saved: {path} ({int(np.sum(stones))} stones, porosity {porosity:.3f}, sleeper bottom at {seat_height:.4f} m)")
@@ -499,6 +500,15 @@ def load(path):
     return bed, attrs
 
 
+def stone_figures(scene, bed):
+    """The bed's stones in figures: mean triangles of their cores (triangles_per_stone), mean and largest
+    characteristic length [m]."""
+    stones = bed.kind == STONE
+    triangles = np.array([len(t["triangles"]) for t in sc.templates(scene)])
+    return {"mean_triangles_per_stone": float(np.mean(triangles[bed.shape[stones]])),
+            "mean_stone_size_m": float(np.mean(bed.size[stones])), "max_stone_size_m": float(np.max(bed.size[stones]))}
+
+
 def main(argv, Stage):
     """bed.py's command line: prepares the bed of the parameters with `Stage`'s driver unless its file exists."""
     p, out = parameters_from_command_line(argv)
@@ -508,11 +518,13 @@ def main(argv, Stage):
             say(f"bed found: {path} (key {sc.bed_key(p)}), no preparation")
         else:
             prepare(p, path, Stage)
-    _, attrs = load(path)
+    bed, attrs = load(path)
     record = {"path": path, "key": sc.bed_key(p), "reused": reused, "stones": int(attrs["stones"]),
               "porosity": float(attrs["porosity"]), "seat_height_m": float(attrs["seat_height_m"]),
-              "size_scale": float(attrs["size_scale"]), "stage_log": json.loads(attrs["stage_log"]),
-              "driver": attrs.get("driver", "yade"), "wall_time_s": time.monotonic() - WALL_START}
+              "size_scale": float(attrs["size_scale"]), **stone_figures(sc.build(p), bed),
+              "stage_log": json.loads(attrs["stage_log"]),
+              "driver": attrs.get("driver", "yade"), "preparation_version": int(attrs.get("preparation_version", 1)),
+              "wall_time_s": time.monotonic() - WALL_START}
     if out:
         with open(os.path.join(out, "bed.json"), "w") as f:
             json.dump(record, f, indent=2)

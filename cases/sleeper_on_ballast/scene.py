@@ -24,6 +24,7 @@ HERE = os.path.dirname(os.path.abspath(__file__))
 ROOT = os.environ.get("RAILCOSIM_ROOT", os.path.dirname(os.path.dirname(HERE)))
 sys.path[:0] = [os.path.join(ROOT, "yade_engines", "clusters"), os.path.join(ROOT, "python")]
 import ballast_clusters  # noqa: E402  (shape library, rotations, polyhedron mass properties)
+from scipy.spatial import ConvexHull  # noqa: E402  (as the shape library's ConvexStone)
 from railcosim import bedcache  # noqa: E402
 
 # Ullrich 2022 Table 6.1 and Song et al. 2019 (fixed by the experiment, not parameters of the case).
@@ -40,6 +41,16 @@ ASSUMED_POROSITY = 0.40
 SIZE_QUANTUM = 1.0 / 40.0             # sizes are rounded to 1/40 of the mean: shared templates, 2.5 % steps
 
 BED_FORMAT = 1                        # version of the bed file layout (part of the cache key)
+# Version of the bed that a parameter set makes, part of the cache key (bed_values). Bump it by hand with any change
+# that makes another bed from the same parameters: preparation.py's stages, plate servo and trims, scene.py's draws,
+# templates and placement, the drivers' stage engines, the polyhedra library's contact law or integration. Cached beds
+# of the older code are then prepared again instead of being reused without notice. It enters the key only when it is
+# not 1, the version of every bed cached before it existed, so that those keep their keys: a bump re-prepares beds
+# once, and until then the desk's and CI's kept caches (~/.cache/railcosim/beds) stay valid. Not a hash of the
+# sources: a comment, a log line or a load-run helper edited in these files would re-prepare every cached bed (16 min
+# for the default bed on 2 cores, 7 min for the seed's on the GPU), and a hash of the Python alone would miss the C++
+# library that moves the stones.
+PREPARATION_VERSION = 1
 
 
 # ---------------------------------------------------------------------------------------------------
@@ -70,28 +81,58 @@ def _shape_measures(vertices, triangles):
     return feret, abs(volume), area, curvature
 
 
-_LIBRARY = None
+_TEMPLATES = {}
 
 
-def library():
-    """The shape library's stones: [{name, vertices (unit sieve size), triangles, feret, volume, area, curvature}]."""
-    global _LIBRARY
-    if _LIBRARY is None:
-        shapes = ballast_clusters.loadShapeLibrary()["shapes"]
-        _LIBRARY = []
-        for shape in shapes:
-            feret, volume, area, curvature = _shape_measures(shape["vertices"], shape["triangles"])
-            _LIBRARY.append({"name": shape["name"], "vertices": shape["vertices"], "triangles": shape["triangles"],
-                             "clusters": shape["clusters"], "feret": feret, "volume": volume, "area": area,
-                             "curvature": curvature})
-    return _LIBRARY
+def reduced_hull(vertices, triangles, max_triangles):
+    """(vertices, outward triangles) of a convex polyhedron of at most `max_triangles` triangles made from the convex
+    template (vertices, triangles): a closed convex triangulated surface of V vertices has 2V - 4 triangles (Euler's
+    relation V - E + F = 2 with 3F = 2E), so the hull keeps at most max_triangles // 2 + 2 of the template's vertices
+    (an odd count gets one triangle fewer). Greedy: the vertex whose removal leaves the largest hull volume goes first,
+    until few enough are left. The vertices kept are the template's own, in its body frame: every one stays a hull
+    vertex (an extreme point of a set is one of every subset holding it), and the reduced hull lies inside the
+    template. A template of at most `max_triangles` triangles is returned as it is."""
+    if len(triangles) <= max_triangles:
+        return vertices, triangles
+    keep = list(range(len(vertices)))
+    while len(keep) > max_triangles // 2 + 2:
+        volumes = [ConvexHull(vertices[keep[:k] + keep[k + 1:]]).volume for k in range(len(keep))]
+        del keep[int(np.argmax(volumes))]
+    stone = ballast_clusters.ConvexStone(vertices[keep])
+    return stone.vertices, stone.triangles
+
+
+def library(triangles_per_stone=0):
+    """The stone templates: the shape library's 8 stones (unit sieve size, principal axes), each as
+    {name, vertices, triangles, feret, volume, area, curvature}; triangles_per_stone > 0: each reduced to a hull of at
+    most that many triangles (reduced_hull; the seed's particle resolution, Ullrich 2022 §6.4.6), 0: the library's
+    own hulls (12-66 triangles)."""
+    if triangles_per_stone not in _TEMPLATES:
+        templates = []
+        for shape in ballast_clusters.loadShapeLibrary()["shapes"]:
+            vertices, triangles = shape["vertices"], shape["triangles"]
+            if triangles_per_stone > 0:
+                vertices, triangles = reduced_hull(vertices, triangles, triangles_per_stone)
+            feret, volume, area, curvature = _shape_measures(vertices, triangles)
+            templates.append({"name": shape["name"], "vertices": vertices, "triangles": triangles,
+                              "clusters": shape["clusters"], "feret": feret, "volume": volume, "area": area,
+                              "curvature": curvature})
+        _TEMPLATES[triangles_per_stone] = templates
+    return _TEMPLATES[triangles_per_stone]
+
+
+def templates(scene):
+    """The stone templates of a scene (library(scene's triangles_per_stone)): the one place the stones' cores come
+    from, for both DEM drivers, the cloud placement and the volumes."""
+    return library(scene["triangles_per_stone"])
 
 
 def stone_core(scene, shape, size):
-    """(core vertices in the body frame [m], dilation radius r_d [m]) of library stone `shape` of characteristic
+    """(core vertices in the body frame [m], dilation radius r_d [m]) of stone template `shape` of characteristic
     length `size`: r_d = dilation_fraction x size, and the core scaled so that the dilated stone's Feret diameter
-    (its largest extent) is `size` (a Minkowski sum with a ball of radius r_d adds 2 r_d to every extent)."""
-    stone = library()[shape]
+    (its largest extent) is `size` (a Minkowski sum with a ball of radius r_d adds 2 r_d to every extent). A reduced
+    template (triangles_per_stone) is scaled by its own Feret diameter: the characteristic length stays `size`."""
+    stone = templates(scene)[shape]
     r_d = scene["dilation_fraction"] * size
     scale = (size - 2.0 * r_d) / stone["feret"]
     return stone["vertices"] * scale, r_d
@@ -99,7 +140,7 @@ def stone_core(scene, shape, size):
 
 def stone_volume(scene, shape, size):
     """Volume of the dilated stone [m^3] (Steiner formula, exact for a convex core)."""
-    stone = library()[shape]
+    stone = templates(scene)[shape]
     r_d = scene["dilation_fraction"] * size
     s = (size - 2.0 * r_d) / stone["feret"]
     return (stone["volume"] * s ** 3 + stone["area"] * s * s * r_d + stone["curvature"] * s * r_d * r_d
@@ -110,28 +151,54 @@ def mean_stone_volume(scene, samples=20000):
     """Mean dilated volume of the gradation over the library shapes [m^3] (a fixed-seed sample)."""
     rng = np.random.default_rng(12345)
     sizes = sample_sizes(scene["gradation"], rng, samples)
-    shapes = rng.integers(len(library()), size=samples)
+    shapes = rng.integers(len(templates(scene)), size=samples)
     return float(np.mean([stone_volume(scene, s, d) for s, d in zip(shapes, sizes)]))
 
 
 # ---------------------------------------------------------------------------------------------------
-# Gradation: Ullrich 2022's normal distribution of the characteristic length, truncated.
+# Gradation: the characteristic length of Ullrich 2022 §6.2, normal (truncated) or piece-wise constant.
 # ---------------------------------------------------------------------------------------------------
 def sample_sizes(gradation, rng, count):
-    """`count` characteristic lengths [m] from the normal distribution (mean, std) truncated to [min, max]
-    (rejection), rounded to SIZE_QUANTUM of the mean so that stones share shape templates."""
-    mean, std, low, high = (gradation[k] for k in ("mean", "std", "min", "max"))
-    sizes = np.empty(0)
-    while len(sizes) < count:
-        draw = rng.normal(mean, std, size=2 * (count - len(sizes)) + 16)
-        sizes = np.concatenate([sizes, draw[(draw >= low) & (draw <= high)]])
-    quantum = SIZE_QUANTUM * mean
+    """`count` characteristic lengths [m] drawn from the gradation, rounded to SIZE_QUANTUM of its mean so that
+    stones share shape templates: "normal": the normal distribution (mean, std) truncated to [min, max] (rejection);
+    "piecewise": a piece-wise constant density, bin k of [edges[k], edges[k+1]] with number fraction fractions[k]
+    (the bin by inversion of the cumulative fractions, then uniform in it)."""
+    low, high = gradation["min"], gradation["max"]
+    if gradation["distribution"] == "piecewise":
+        edges = np.asarray(gradation["edges"])
+        cumulative = np.cumsum(gradation["fractions"])
+        bins = np.minimum(np.searchsorted(cumulative / cumulative[-1], rng.random(count), side="right"),
+                          len(edges) - 2)
+        sizes = edges[bins] + rng.random(count) * (edges[bins + 1] - edges[bins])
+    else:
+        mean, std = gradation["mean"], gradation["std"]
+        sizes = np.empty(0)
+        while len(sizes) < count:
+            draw = rng.normal(mean, std, size=2 * (count - len(sizes)) + 16)
+            sizes = np.concatenate([sizes, draw[(draw >= low) & (draw <= high)]])
+    quantum = SIZE_QUANTUM * gradation["mean"]
     return np.clip(np.round(sizes[:count] / quantum) * quantum, low, high)
 
 
+def gradation_of(p, scale):
+    """The gradation of p with every length times `scale`: {distribution, mean, std, min, max} and for "piecewise"
+    {edges, fractions}, whose mean and std are the piece-wise constant density's (uniform in each bin)."""
+    if p["size_distribution"] != "piecewise":
+        return {"distribution": "normal", **{k: scale * p[f"stone_size_{k}_m"] for k in ("mean", "std", "min", "max")}}
+    edges = scale * np.asarray(p["stone_size_edges_m"], float)
+    fractions = np.asarray(p["stone_size_fractions"], float) / math.fsum(p["stone_size_fractions"])
+    low, high = edges[:-1], edges[1:]
+    mean = float(np.sum(fractions * (low + high) / 2))
+    second = float(np.sum(fractions * (low * low + low * high + high * high) / 3))
+    return {"distribution": "piecewise", "mean": mean, "std": math.sqrt(max(0.0, second - mean * mean)),
+            "min": float(edges[0]), "max": float(edges[-1]), "edges": edges.tolist(), "fractions": fractions.tolist()}
+
+
 def seed_stone_count(p):
-    """Stones of the seed's gradation (mean 0.04 m) that fill this bed at ASSUMED_POROSITY."""
-    scene = _scene_with_scale(p, 1.0)
+    """Stones of the seed's gradation (unscaled) of the library's own hulls that fill this bed at ASSUMED_POROSITY:
+    the reference of size_scale, the same for every triangles_per_stone, so that a resolution study keeps the sizes
+    (reduced stones are smaller at the same characteristic length: more of them fill the bed)."""
+    scene = _scene_with_scale({**p, "triangles_per_stone": 0}, 1.0)
     return (1.0 - ASSUMED_POROSITY) * math.prod(scene["bed"]) / mean_stone_volume(scene)
 
 
@@ -148,7 +215,7 @@ def size_scale(p):
 # ---------------------------------------------------------------------------------------------------
 def _scene_with_scale(p, scale):
     length, width = p["bed_length_m"], p["bed_width_m"]
-    gradation = {k: scale * p[f"stone_size_{k}_m"] for k in ("mean", "std", "min", "max")}
+    gradation = gradation_of(p, scale)
     centre = (0.5 * length, 0.5 * width)
     height = p["bed_height_m"]
     sensor_top = height - p["sensor_depth_m"]
@@ -160,6 +227,7 @@ def _scene_with_scale(p, scale):
         "gradation": gradation,
         "size_scale": scale,
         "dilation_fraction": p["dilation_fraction"],
+        "triangles_per_stone": p["triangles_per_stone"],
         "particle_shape": p["particle_shape"],
         "material": {"density": p["particle_density"], "young": p["particle_young"], "poisson": p["particle_poisson"],
                      "friction": p["friction"], "restitution": p["restitution"]},
@@ -195,9 +263,33 @@ def check(p):
         problems.append(f"bed_width_m={width:g}: the sleeper (0.2 m) and the sensors (0.22 m) need at least 0.27 m")
     if p["sensor_depth_m"] + SENSOR_SIZE[2] > p["bed_height_m"] - 0.1:
         problems.append(f"sensor_depth_m={p['sensor_depth_m']:g}: the sensors must lie above 0.1 m of ballast")
-    if not p["stone_size_min_m"] <= p["stone_size_mean_m"] <= p["stone_size_max_m"]:
+    if p["size_distribution"] == "piecewise":
+        problems += _piecewise_problems(p["stone_size_edges_m"], p["stone_size_fractions"])
+    elif not p["stone_size_min_m"] <= p["stone_size_mean_m"] <= p["stone_size_max_m"]:
         problems.append("stone sizes need stone_size_min_m <= stone_size_mean_m <= stone_size_max_m")
+    if 0 < p["triangles_per_stone"] < 4:
+        problems.append(f"triangles_per_stone={p['triangles_per_stone']}: a stone needs at least 4 triangles (a "
+                        "tetrahedron), or 0 for the shape library's own hulls")
+    elif p["triangles_per_stone"] % 2:
+        problems.append(f"triangles_per_stone={p['triangles_per_stone']}: a closed convex triangulated surface has an "
+                        f"even number of triangles (2V - 4 for V vertices); use {p['triangles_per_stone'] - 1} or "
+                        f"{p['triangles_per_stone'] + 1}")
     return problems
+
+
+def _piecewise_problems(edges, fractions):
+    """What is wrong with a piece-wise constant gradation's bins (edges [m]) and number fractions, one message each."""
+    numbers = lambda values: all(isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v)
+                                 for v in values)
+    if len(edges) < 2 or not numbers(edges) or edges[0] <= 0 or any(b <= a for a, b in zip(edges, edges[1:])):
+        return [f"stone_size_edges_m={edges}: the bins' edges [m], at least two, positive and increasing"]
+    if len(fractions) != len(edges) - 1 or not numbers(fractions):
+        return [f"stone_size_fractions={fractions}: one number fraction per bin ({len(edges) - 1} for "
+                f"{len(edges)} edges)"]
+    if min(fractions) < 0 or abs(math.fsum(fractions) - 1.0) > 1e-6:
+        return [f"stone_size_fractions={fractions}: number fractions, non-negative and summing to 1 "
+                f"(sum {math.fsum(fractions):.6g})"]
+    return []
 
 
 # ---------------------------------------------------------------------------------------------------
@@ -209,7 +301,7 @@ def layer_stones(scene, rng, z_low, z_high):
     length, width, _ = scene["bed"]
     volume = (1.0 - ASSUMED_POROSITY) * length * width * (z_high - z_low)
     sizes = sample_sizes(scene["gradation"], rng, max(1, int(round(volume / mean_stone_volume(scene)))))
-    shapes = rng.integers(len(library()), size=len(sizes))
+    shapes = rng.integers(len(templates(scene)), size=len(sizes))
     return list(zip(shapes.tolist(), sizes.tolist()))
 
 
@@ -290,7 +382,7 @@ def place_cloud(scene, stones, region, rng, gap_fraction=0.02, candidates=10, or
             rotation = ballast_clusters.randomRotation(rng)
             # The margin covers the gap and what sampling the columns at their centres misses (up to a cell's
             # half-diagonal sideways): no two stones overlap.
-            bottom, upper, _, _ = _column_profile(core, library()[shape]["triangles"], r_d, rotation, cell,
+            bottom, upper, _, _ = _column_profile(core, templates(scene)[shape]["triangles"], r_d, rotation, cell,
                                                   0.5 * gap_fraction * size + 0.75 * cell)
             wx, wy = bottom.shape
             # The candidates' corners, drawn as (ix, iy) pairs in turn (one call, the same stream as one draw each).
@@ -408,15 +500,35 @@ BED_PARAMETERS = ("bed_length_m", "bed_width_m", "bed_height_m", "sensor_depth_m
                   "compaction_pressure_kPa", "compaction_amplitude", "compaction_frequency_hz", "compaction_cycles",
                   "settle_max_s", "settle_speed_m_s", "trim_settle_s", "sleeper_density", "seating_load_N",
                   "critical_step_fraction", "cluster_level", "seed")
+# Bed parameters added after beds were first cached, each with the value every bed made before it existed was made
+# with: such a parameter enters the key only when it differs from that value, so that the beds cached before it (CI
+# keeps its bed cache between runs) keep their keys. These values are history: never change them.
+ADDED_BED_PARAMETERS = {"triangles_per_stone": 0, "size_distribution": "normal"}
+# The bins of a piece-wise constant gradation: in the key of the beds drawn from it (size_distribution = "piecewise").
+PIECEWISE_PARAMETERS = ("stone_size_edges_m", "stone_size_fractions")
 
 
 def bed_key(p):
-    """Cache key of a bed: a hash of the parameters that define it (BED_PARAMETERS) and of the file layout."""
+    """Cache key of a bed: a hash of bed_values(p)."""
     return bedcache.key(bed_values(p))
 
 
 def bed_values(p):
-    return {"format": BED_FORMAT, **{name: p[name] for name in BED_PARAMETERS}}
+    """What defines a bed: the file layout (BED_FORMAT), the parameters of BED_PARAMETERS, those of
+    ADDED_BED_PARAMETERS that differ from their value before they existed, a piece-wise gradation's bins, and the
+    preparation code's version (PREPARATION_VERSION, from 2 on)."""
+    values = {"format": BED_FORMAT, **{name: p[name] for name in BED_PARAMETERS}}
+    values.update({name: p[name] for name, before in ADDED_BED_PARAMETERS.items() if p[name] != before})
+    if p["size_distribution"] == "piecewise":
+        values.update({name: p[name] for name in PIECEWISE_PARAMETERS})
+    if PREPARATION_VERSION != 1:
+        values["preparation"] = PREPARATION_VERSION
+    return values
+
+
+def bed_parameters(p):
+    """The parameters of p that define its bed (BED_PARAMETERS and ADDED_BED_PARAMETERS), as the bed file records them."""
+    return {name: p[name] for name in BED_PARAMETERS + tuple(ADDED_BED_PARAMETERS) + PIECEWISE_PARAMETERS}
 
 
 def bed_path(p):
@@ -430,10 +542,14 @@ def describe(p):
     g = scene["gradation"]
     count = (1.0 - ASSUMED_POROSITY) * math.prod(scene["bed"]) / mean_stone_volume(scene)
     ends = pattern_phase_ends(scene["load_pattern"])
-    lines = [f"bed {scene['bed'][0]:g} x {scene['bed'][1]:g} x {scene['bed'][2]:g} m, stones: normal mean {g['mean']:.4f} m, "
+    bins = (" (bins " + ", ".join(f"{a:.4f}-{b:.4f}: {f:.3f}" for a, b, f in zip(g["edges"], g["edges"][1:], g["fractions"]))
+            + ")") if g["distribution"] == "piecewise" else ""
+    lines = [f"bed {scene['bed'][0]:g} x {scene['bed'][1]:g} x {scene['bed'][2]:g} m, stones: {g['distribution']}{bins} mean {g['mean']:.4f} m, "
              f"std {g['std']:.4f} m in [{g['min']:.4f}, {g['max']:.4f}] (x{scene['size_scale']:.3f} of the seed's), "
              f"r_d = {scene['dilation_fraction']:g} x size; about {count:.0f} stones at porosity {ASSUMED_POROSITY:g} "
              f"(seed's sizes: {seed_stone_count(p):.0f})",
+             "stone templates: " + ", ".join(f"{t['name']} {len(t['triangles'])}" for t in templates(scene)) + " triangles "
+             + (f"(at most {scene['triangles_per_stone']})" if scene["triangles_per_stone"] else "(the library's hulls)"),
              f"sensors: top at z = {scene['sensors']['top']:.3f} m, x = "
              + ", ".join(f"{c[0]:.3f}" for c in scene["sensors"]["centres"]),
              "stages: " + "; ".join(f"{s['name']}: {s['what']}" for s in scene["stages"]),

@@ -82,7 +82,11 @@ def nearest(name, names):
 
 
 def convert_like(key, text, default):
-    """Converts a --set value to the type of the parameter's default, so typos fail loudly."""
+    """Converts a --set value to the type of the parameter's default, so typos fail loudly. A list parameter takes
+    comma-separated values (brackets optional), each converted like the default's first element."""
+    if isinstance(default, list):
+        items = [item.strip() for item in text.strip().strip("[]").split(",") if item.strip()]
+        return [convert_like(key, item, default[0]) for item in items] if default else items
     try:
         if isinstance(default, bool):
             if text.lower() in ("1", "true", "yes", "on"):

@@ -10,6 +10,7 @@ folder (bed.py, dem.py) and a driver without YADE read one description:
     stones = layer_stones(scene, rng, z_low, z_high)   # (shape, size) drawn for a layer of the bed
     cloud = place_cloud(scene, stones, region, rng)    # non-overlapping start positions and orientations
     core, r_d = stone_core(scene, shape, size)         # core vertices (body frame) and dilation radius
+    templates(scene)                                   # the stone templates (triangles_per_stone), the cores' one source
 
 Frame: the bed box spans x in [0, bed_length_m], y in [0, bed_width_m], z in [0, 0.8] (floor at z = 0); the
 sleeper is centred on the box in x and y. Numpy and the shape library only (/usr/bin/python3 or YADE's Python).

@@ -10,10 +10,12 @@ folder (bed.py, dem.py) and a driver without YADE read one description:
     stones = layer_stones(scene, rng, z_low, z_high)   # (shape, size) drawn for a layer of the bed
     cloud = place_cloud(scene, stones, region, rng)    # non-overlapping start positions and orientations
     core, r_d = stone_core(scene, shape, size)         # core vertices (body frame) and dilation radius
+    templates(scene)                                   # the stone templates (triangles_per_stone), the cores' one source
 
 Frame: the bed box spans x in [0, bed_length_m], y in [0, bed_width_m], z in [0, 0.8] (floor at z = 0); the
 sleeper is centred on the box in x and y. Numpy and the shape library only (/usr/bin/python3 or YADE's Python).
 """
+import itertools
 import math
 import os
 import sys
@@ -39,6 +41,7 @@ GRAVITY = 9.81
 # Porosity assumed to turn a volume into a stone count; the stage log reports the porosity reached.
 ASSUMED_POROSITY = 0.40
 SIZE_QUANTUM = 1.0 / 40.0             # sizes are rounded to 1/40 of the mean: shared templates, 2.5 % steps
+MAX_ORIENTATIONS = 200                # random orientations place_cloud tries for a stone that fits in none of the first
 
 BED_FORMAT = 1                        # version of the bed file layout (part of the cache key)
 # Version of the bed that a parameter set makes, part of the cache key (bed_values). Bump it by hand with any change
@@ -378,7 +381,11 @@ def place_cloud(scene, stones, region, rng, gap_fraction=0.02, candidates=10, or
         shape, size = stones[i]
         core, r_d = stone_core(scene, shape, size)
         best = None
-        for _ in range(orientations_tried):
+        for attempt in itertools.count():
+            # A stone that fitted in none of the orientations tried (a large one in a narrow bed) gets more, up to
+            # MAX_ORIENTATIONS: the draws of every stone that fits in the first ones are those of fewer tries.
+            if attempt >= orientations_tried and (best is not None or attempt >= MAX_ORIENTATIONS):
+                break
             rotation = ballast_clusters.randomRotation(rng)
             # The margin covers the gap and what sampling the columns at their centres misses (up to a cell's
             # half-diagonal sideways): no two stones overlap.
@@ -398,7 +405,8 @@ def place_cloud(scene, stones, region, rng, gap_fraction=0.02, candidates=10, or
             if best is None or rests[k] < best[0]:
                 best = (float(rests[k]), int(ix[k]), int(iy[k]), rotation, bottom, upper)
         if best is None:
-            raise ValueError(f"place_cloud: a stone of size {size:.3f} m does not fit in the region {region}")
+            raise ValueError(f"place_cloud: a stone of size {size:.3f} m does not fit in the region {region} in "
+                             f"{MAX_ORIENTATIONS} orientations: more stones (smaller ones) or a wider bed")
         centre_z, ix, iy, rotation, bottom, upper = best
         wx, wy = bottom.shape
         inside = ~np.isnan(bottom)

@@ -344,6 +344,15 @@ class ValuesTest(LauncherTestCase):
                     params = case_parameters.resolve_parameters(config, smoke, [])
                     self.assertEqual(case_parameters.check_parameters(params, config, module), [])
 
+    def test_list_values(self):
+        """A list parameter takes comma-separated values (brackets optional), each converted like the default's first
+        element; a bad element is refused as any bad value."""
+        config = {"parameters": {"edges": [0.5, 1.0], "names": ["a"]}, "limits": {"edges": {}, "names": {}}}
+        params = case_parameters.resolve_parameters(config, False, ["edges=[1, 2.5,4]", "names=b,c"])
+        self.assertEqual((params["edges"], params["names"]), ([1.0, 2.5, 4.0], ["b", "c"]))
+        with self.assertRaisesRegex(case_parameters.ParameterError, "expected a float like the default 0.5"):
+            case_parameters.resolve_parameters(config, False, ["edges=1,x"])
+
     def test_forced_dem_step(self):
         config, module = run_case.load_case(os.path.join(ROOT, "cases", "plate_impact"))
         params = case_parameters.resolve_parameters(config, False, ["dem_dt=5e-6"])

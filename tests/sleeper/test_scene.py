@@ -254,6 +254,23 @@ class GradationTest(unittest.TestCase):
                     self.assertAlmostEqual(expected / stones, 1.0, delta=0.02)
             self.assertEqual(sc.build(case_parameters("stones=0", f"size_distribution={distribution}"))["size_scale"], 1.0)
 
+    def test_large_stones_placed_inside_a_narrow_bed(self):
+        """The piece-wise gradation at smoke size draws stones up to 0.34 m across for a 0.3 m wide bed: each is placed
+        (scene.place_cloud tries more orientations for a stone that fits in none of the first), every dilated stone
+        inside the box's walls (rotated core's extent + r_d), none below the floor."""
+        p = case_parameters("size_distribution=piecewise", smoke=True)
+        scene = sc.build(p)
+        rng = np.random.default_rng(p["seed"])
+        stones = sc.layer_stones(scene, rng, 0.0, scene["stages"][0]["z_high"])
+        self.assertGreater(max(size for _, size in stones), p["bed_width_m"])
+        cloud = sc.place_cloud(scene, stones, (0.0, p["bed_length_m"], 0.0, p["bed_width_m"], 1e-3), rng)
+        for (shape, size), position, orientation in zip(stones, cloud["positions"], cloud["orientations"]):
+            core, r_d = sc.stone_core(scene, shape, size)
+            world = core @ sc.rotation_matrix(orientation).T + position
+            low, high = world.min(axis=0) - r_d, world.max(axis=0) + r_d
+            self.assertTrue(low[0] >= 0 and low[1] >= 0 and low[2] >= 1e-3 and high[0] <= p["bed_length_m"]
+                            and high[1] <= p["bed_width_m"], (size, low, high))
+
     def test_parameters_refused(self):
         """Bins that do not increase, fractions that do not match the bins or do not sum to 1: refused, with the
         reason; lists are given to --set as comma-separated values."""

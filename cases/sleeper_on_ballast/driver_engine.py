@@ -17,7 +17,7 @@ def polyhedra_bed(scene, bed, p, time_step):
     candidate lists of yade_engine.polyhedra_engine."""
     stone, _ = prep.stone_material(scene)
     engine = PolyhedraBed(time_step, stone, gravity=(0, 0, -sc.GRAVITY), max_neighbours=prep.neighbour_limit(scene, bed),
-                          max_wall_neighbours=prep.WALL_NEIGHBOURS, large_body_ratio=prep.LARGE_BODY_RATIO,
+                          max_wall_neighbours=prep.WALL_NEIGHBOURS, large_body_ratio=prep.large_body_ratio(scene, bed),
                           backend=p["polyhedra_backend"])
     density = scene["material"]["density"]
     for i in range(len(bed)):

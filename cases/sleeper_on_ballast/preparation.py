@@ -26,10 +26,10 @@ STONE, SENSOR = 0, 1
 # Wall candidates per stone: a large stone at a box corner under the sleeper meets the walls' and the sleeper's
 # triangles (the sleeper's bottom face is 80 triangles of 0.11-0.15 x 0.1 m).
 WALL_NEIGHBOURS = 32
-# Bodies above this multiple of the median bounding radius stay out of the polyhedra system's neighbour grid
-# (PolyhedraSystem's largeBodyRatio): the sensor blocks among the seed's stones (5-6 x), which would otherwise set the
-# grid's cell size.
-LARGE_BODY_RATIO = 2.5
+# Bodies larger than every stone by this factor stay out of the polyhedra system's neighbour grid (PolyhedraSystem's
+# largeBodyRatio, large_body_ratio below): the sensor blocks (3-8 x the largest stone's bounding radius), which would
+# otherwise set the grid's cell size. The factor only covers the roundoff between this module's and the library's radii.
+LARGE_BODY_MARGIN = 1.05
 SYNC_INTERVAL = 100      # DEM steps per batch of the polyhedra engine (the plates are steered once per batch)
 CHUNK_S = 0.01           # simulated time between settling checks and progress lines [s]
 # Plates (compaction, seating) are steered by a force servo once per batch (PlateServo).
@@ -184,14 +184,25 @@ def stone_material(scene):
     return stone, (m["young"], m["poisson"], m["restitution"], math.tan(0.0))
 
 
+def large_body_ratio(scene, bed, radii=None):
+    """PolyhedraSystem's largeBodyRatio for the bed: just above its largest stone over the median bounding radius, so
+    that only bodies larger than every stone (the sensor blocks) are large. A fixed ratio would put a wide
+    gradation's largest stones out of the grid as well (the piecewise one's reach 3.6 x the median), and every stone
+    would list them all: a 222,000-stone layer ran the H100 out of memory with a ratio of 2.5."""
+    if radii is None:
+        radii = np.array([bed.bounding_radius(scene, i) for i in range(len(bed))])
+    stones = radii[bed.kind == STONE]
+    return LARGE_BODY_MARGIN * float(np.max(stones)) / float(np.median(radii)) if len(stones) else 0.0
+
+
 def neighbour_limit(scene, bed):
     """Candidate list length of the bed. The polyhedra system keeps one length for all stones. Bodies above
-    LARGE_BODY_RATIO x the median bounding radius (the sensor blocks, where they are that much larger) are large: they
+    large_body_ratio x the median bounding radius (the sensor blocks) are large: they
     list no stones, each stone lists the large bodies within its reach. The largest other body lists up to every stone
     within its bounding sphere plus theirs: 1.5 x the stones of mean size that fit, at the assumed porosity, in the
     shell between that body and the sphere of its bounding radius plus a mean stone's; plus every large body."""
     radii = np.array([bed.bounding_radius(scene, i) for i in range(len(bed))])
-    large = radii > LARGE_BODY_RATIO * np.median(radii)
+    large = radii > large_body_ratio(scene, bed, radii) * np.median(radii)
     largest = int(np.argmax(np.where(large, -1.0, radii)))
     own = math.prod(sc.SENSOR_SIZE) if bed.kind[largest] == SENSOR else sc.stone_volume(scene, bed.shape[largest],
                                                                                           bed.size[largest])

@@ -46,7 +46,7 @@ def polyhedra_engine(scene, bed, p, **attributes):
     """The PolyhedraGpuEngine of the bed: gravity, restitution, candidate lists long enough for its largest bodies."""
     return PolyhedraGpuEngine(restitution=scene["material"]["restitution"], gravity=(0, 0, -sc.GRAVITY),
                               maxNeighbours=prep.neighbour_limit(scene, bed), maxWallNeighbours=prep.WALL_NEIGHBOURS,
-                              largeBodyRatio=prep.LARGE_BODY_RATIO, backend=p["polyhedra_backend"], label="poly",
+                              largeBodyRatio=prep.large_body_ratio(scene, bed), backend=p["polyhedra_backend"], label="poly",
                               **attributes)
 
 

@@ -19,10 +19,9 @@ from yade import *  # noqa: F401,F403  (O, utils, the engines and materials)
 from yade import utils
 from yade.minieigenHP import Quaternion, Vector3
 
-import ballast_clusters  # noqa: F401  (scene.py put the shape library on the path)
-import pack_ballast
 import preparation as prep
-import scene as sc
+import scene as sc  # also puts the shape library (yade_engines/clusters) on the path
+import pack_ballast  # noqa: E402
 
 DRIVER = "yade"
 # Directions sampled for the containment of a cluster in its dilated polyhedron (support functions): 20,000 unit

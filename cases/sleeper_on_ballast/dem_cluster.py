@@ -98,7 +98,8 @@ def record():
     return {**sensors.record(window, coupling.window), "mechanical_energy_gain": ce.mechanical_energy(ids) - energy_start}
 
 
-dem.run(record, progress=lambda last: f"sleeper carried {last['interface_force'][2] / 1e3:.2f} kN")
+dem.run(record, progress=lambda last: f"sleeper carried {last['interface_force'][2] / 1e3:.2f} kN; "
+                                        f"{coupling.implicitPasses} passes, scene checkpoints {coupling.checkpointTime:.1f} s")
 # 5. What the post-processing reads (dem_info.json): the bed, the time step, the sensors, the energy bound's terms.
 dem.save(particles=len(stones), stones=len(stones), sensors=len(sensor_ids), particle_mass_kg=mass,
          cluster_spheres=members, cluster_level=p["cluster_level"], particle_shape="cluster",

@@ -24,13 +24,6 @@ import scene as sc  # also puts the shape library (yade_engines/clusters) on the
 import pack_ballast  # noqa: E402
 
 DRIVER = "yade"
-# Directions sampled for the containment of a cluster in its dilated polyhedron (support functions): 20,000 unit
-# vectors are 1.5 degrees apart, which misses the support of a body of radius R by at most R (1 - cos 0.75 deg) =
-# 1e-4 R; CONTAINMENT_MARGIN leaves ten times that.
-CONTAINMENT_DIRECTIONS = 20000
-CONTAINMENT_MARGIN = 0.999
-
-
 def materials(scene):
     """(stones' material, walls' material) as BallastMats (the ballast's E, nu, density, restitution, friction; the
     walls frictionless), appended to O.materials."""
@@ -41,45 +34,6 @@ def materials(scene):
     O.materials.append(stone)
     O.materials.append(wall)
     return stone, wall
-
-
-_TEMPLATES = {}
-
-
-def cluster_templates(level):
-    """Per library stone: {spheres (n, 4) in the stone's frame at unit Feret size of its undilated hull, volume and
-    principal inertia per unit density at that size}. The cluster is scaled to the hull whose largest extent is the
-    stone's size, and shrunk where needed (by at most 1 % on the library) so that it lies inside the dilated polyhedron
-    of that size (core x (1 - 2 f) with f = dilation_fraction, plus r_d = f x size): a cluster put in place of a
-    polyhedron of the bed touches nothing the polyhedron did not."""
-    if level in _TEMPLATES:
-        return _TEMPLATES[level]
-    rng = np.random.default_rng(0)
-    directions = rng.normal(size=(CONTAINMENT_DIRECTIONS, 3))
-    directions /= np.linalg.norm(directions, axis=1)[:, None]
-    templates = []
-    for stone in sc.library():
-        cluster = stone["clusters"][level]
-        spheres = np.asarray(cluster["spheres"], float) / stone["feret"]
-        templates.append({"spheres": spheres, "volume": cluster["volume"] / stone["feret"] ** 3,
-                          "inertia": np.asarray(cluster["principalInertia"], float) / stone["feret"] ** 5,
-                          "unit_vertices": np.asarray(stone["vertices"], float) / stone["feret"]})
-    _TEMPLATES[level] = (templates, directions)
-    return _TEMPLATES[level]
-
-
-def cluster_of(scene, level, shape, size):
-    """(member spheres (n, 4) in the stone's frame [m], mass [kg], principal inertia [kg m^2]) of library stone
-    `shape` at characteristic length `size`, inside its dilated polyhedron (cluster_templates)."""
-    templates, directions = cluster_templates(level)
-    t = templates[shape]
-    f = scene["dilation_fraction"]
-    # Support of the dilated polyhedron at unit size vs that of the cluster: the largest scale that fits.
-    dilated = np.max(directions @ (t["unit_vertices"] * (1.0 - 2.0 * f)).T, axis=1) + f
-    cluster = np.max(directions @ t["spheres"][:, :3].T + t["spheres"][:, 3][None, :], axis=1)
-    scale = size * min(1.0, CONTAINMENT_MARGIN * float(np.min(dilated / cluster)))
-    density = scene["material"]["density"]
-    return t["spheres"] * scale, density * t["volume"] * scale ** 3, density * t["inertia"] * scale ** 5
 
 
 def add_bodies(scene, bed, material, level):
@@ -96,7 +50,7 @@ def add_bodies(scene, bed, material, level):
             b = O.bodies.append(body)
             offsets.append(None)
         else:
-            spheres, mass, inertia = cluster_of(scene, level, bed.shape[i], bed.size[i])
+            spheres, mass, inertia = sc.cluster_of(scene, level, bed.shape[i], bed.size[i])
             b = pack_ballast.addClusterStone({"rotation": rotation, "spheres": spheres, "mass": mass,
                                               "principalInertia": inertia}, bed.position[i], material)
             state = O.bodies[b].state
@@ -180,7 +134,7 @@ def critical_time_step(scene, bed, level, gamma, force, speed):
     young, nu = m["young"], m["poisson"]
     smallest = math.inf
     for shape, size in sorted({(int(s), float(d)) for s, d, k in zip(bed.shape, bed.size, bed.kind) if k == prep.STONE}):
-        spheres, mass, inertia = cluster_of(scene, level, shape, size)
+        spheres, mass, inertia = sc.cluster_of(scene, level, shape, size)
         reach = np.linalg.norm(spheres[:, :3], axis=1) + spheres[:, 3]
         for radius, arm in zip(spheres[:, 3], reach):
             w = 1.0 / mass + arm ** 2 / float(np.min(inertia))

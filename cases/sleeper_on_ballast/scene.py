@@ -141,7 +141,7 @@ def _sphere_in_dilated(normals, offsets, core, centre, radius, dilation):
 def cluster_templates(level, fraction):
     """Per library stone: {spheres (n, 4) in the stone's frame at unit size, volume and principal inertia per unit
     density at that size}. The cluster is scaled to the hull whose largest extent is the stone's size, and shrunk
-    where needed (bisection to CONTAINMENT_TOLERANCE; by at most 2 % on the library at fraction 0.1) so that every
+    where needed (bisection to CONTAINMENT_TOLERANCE; by at most 1.3 % on the library at fraction 0.1) so that every
     member lies inside the dilated polyhedron of that size (core x (1 - 2 fraction), plus r_d = fraction x size): a
     cluster put in place of a polyhedron of the bed touches nothing the polyhedron did not."""
     key = (level, fraction)

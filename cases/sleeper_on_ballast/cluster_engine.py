@@ -21,9 +21,11 @@ from yade.minieigenHP import Quaternion, Vector3
 
 import preparation as prep
 import scene as sc  # also puts the shape library (yade_engines/clusters) on the path
-import pack_ballast  # noqa: E402
+import pack_ballast  # noqa: E402  (the shape library's clump builder)
 
 DRIVER = "yade"
+
+
 def materials(scene):
     """(stones' material, walls' material) as BallastMats (the ballast's E, nu, density, restitution, friction; the
     walls frictionless), appended to O.materials."""
@@ -94,7 +96,7 @@ def states(ids, offsets):
     return p, q, v, w
 
 
-def engines(p, coupling=None, extra=()):
+def engines(coupling=None, extra=()):
     """YADE's contact loop for clump members, facets and boxes with the BallastMat law, the coupling engine (load run)
     or `extra` engines, and the Zhao-van Wachem quaternion integrator without numerical damping."""
     return [ForceResetter(),
@@ -111,7 +113,7 @@ def damping_ratio(scene):
     before and after)."""
     O.reset()
     stone, _ = materials(scene)
-    O.engines = engines({})
+    O.engines = engines()
     a = O.bodies.append(utils.sphere((0, 0, 0), 0.01, material=stone))
     b = O.bodies.append(utils.sphere((0, 0, 0.019), 0.01, material=stone))
     gamma = float(utils.createInteraction(a, b).phys.dampingRatio)
@@ -217,7 +219,7 @@ class ClusterStage(prep.StageBase):
         import __main__
         __main__.cluster_stage_plate_force = self._add_plate_force  # PyRunner's commands run in __main__
         extra = [PyRunner(command="cluster_stage_plate_force()", iterPeriod=1)] if self.plate else []
-        O.engines = engines(p, extra=extra)
+        O.engines = engines(extra=extra)
         if time_step is None:  # the first stage: sized by the contact law for the design loads
             design = sc.design_contact_loads(p, scene, "preparation")
             time_step = p["critical_step_fraction"] * critical_time_step(

@@ -56,7 +56,7 @@ sensor_ids = [ids[i] for i in sensors.indices]
 #    surface; a cluster bed has no polyhedra engine).
 coupling = dem.coupling_engine(material=O.materials[sleeper_mat], restitution=p["restitution"],
                                contactModel="meshContacts")
-O.engines = ce.engines(p, coupling=coupling)
+O.engines = ce.engines(coupling=coupling)
 O.dt = step
 dem.connect()  # receives the sleeper's bottom face, sets O.dt = fem_dt / subcycles
 mass = sum(O.bodies[b].state.mass for b in stones)

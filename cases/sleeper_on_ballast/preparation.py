@@ -531,8 +531,8 @@ def prepare_clusters(p, path, Stage, polyhedron_stage):
     volumes = stage.stone_volumes()
     settle(stage, p["settle_max_s"], p["settle_speed_m_s"], log, "clusters")
     stage.finish()
-    load = {s["name"]: s for s in scene["stages"]}["seat"]["load_n"]
-    seat_height, history = seat(Stage, scene, bed, p, dt, log, "seat", load)
+    seat_load = {s["name"]: s for s in scene["stages"]}["seat"]["load_n"]
+    seat_height, history = seat(Stage, scene, bed, p, dt, log, "seat", seat_load)
     save(path, p, scene, bed, log, seat_height, dt, {"seat": history}, Stage.DRIVER, stone_volumes=volumes)
     return log
 

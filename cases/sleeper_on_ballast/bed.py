@@ -4,6 +4,8 @@
 #   "yade":       railcosim yade bed.py PARAMETERS.json OUTDIR     (YADE's PolyhedraGpuEngine, yade_engine.py)
 #   "standalone": python3 bed.py PARAMETERS.json OUTDIR            (the polyhedra library by ctypes, driver_engine.py;
 #                                                                  the GPU machine's path: no YADE there)
+# particle_shape = "cluster" (YADE only): the polyhedra bed of the same parameters, its stones replaced by their
+# library clusters (cluster_engine.ClusterStage), settled and seated (preparation.prepare_clusters).
 # Alone, with case.toml's defaults: [railcosim yade | python3] bed.py [--smoke] [--set name=value ...] (prints the file)
 # The bed of a parameter set is prepared once: its file name is a hash of the parameters that define it
 # (scene.BED_PARAMETERS, not the driver: both give the same bed); a later run with the same ones skips the preparation.
@@ -16,8 +18,13 @@ sys.path[:0] = [os.path.join(ROOT, "cases", "sleeper_on_ballast"), os.path.join(
 import preparation  # noqa: E402
 
 p, _ = preparation.parameters_from_command_line(sys.argv)
-if p["dem_driver"] == "yade":
-    from yade_engine import YadeStage as Stage
+if p["particle_shape"] == "cluster":  # YADE's clumps, from the polyhedra bed of the same parameters (YadeStage)
+    from cluster_engine import ClusterStage
+    from yade_engine import YadeStage
+    preparation.main(sys.argv, ClusterStage, polyhedron_stage=YadeStage)
+elif p["dem_driver"] == "yade":
+    from yade_engine import YadeStage
+    preparation.main(sys.argv, YadeStage)
 else:
-    from driver_engine import DriverStage as Stage
-preparation.main(sys.argv, Stage)
+    from driver_engine import DriverStage
+    preparation.main(sys.argv, DriverStage)

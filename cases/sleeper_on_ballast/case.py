@@ -32,6 +32,24 @@ def hold_balance_tolerance(p, applied):
 LEVELS = {"44kN_before": ("ramp1", "cyclic_max_kN"), "132kN_before": ("hold", "peak_load_kN"),
           "44kN_after": ("ramp2", "cyclic_max_kN"), "132kN_after": ("final", "peak_load_kN")}
 
+# Energy bound of the cluster bed (particle_shape = "cluster"): the ballast's contacts are dissipative (viscous
+# damping, Coulomb sliding), so its mechanical energy (kinetic + gravitational, sensors included; the walls are fixed)
+# can gain no more than the work the sleeper did on it plus the elastic energy its contacts held at the start:
+# dE(t) <= -W_dem(t) + E_el(0). Reported: max over t of (dE - (-W_dem) - E_el(0)) / max(-W_dem), which a stable run
+# keeps below 0 by what its contacts dissipated. The limit is the explicit step's own energy error: leapfrog at
+# omega dt <= 0.6 (0.3 of the critical step) holds a contact's energy to within (omega dt)^2 / 4 = 9 % of what it
+# exchanges (bounded, not growing; Hairer, Lubich & Wanner 2003 ch. IX), at most the work supplied; a step past the
+# critical one gains energy without bound (angle_of_repose README, "Time step": 2.2 times the impact energy at 4 us).
+ENERGY_BOUND_LIMIT = 0.09
+
+
+def energy_bound(series, dem):
+    """max_t (ballast energy gain - sleeper's work on the ballast - initial contact elastic energy) / max work."""
+    work = -np.asarray(series["interface_work_dem"], float)
+    gain = np.asarray(series["mechanical_energy_gain"], float)
+    scale = max(float(np.max(work)), 1e-12)
+    return float(np.max(gain - work - dem["contact_elastic_energy_start_j"]) / scale)
+
 
 def talbot_pressure(bearing_pressure, depth):
     """Talbot's equation for the largest vertical pressure at depth h under a loaded sleeper, p_c = 16.8 p_a / h^1.25
@@ -49,8 +67,9 @@ def spread_pressure(load, depth):
 class SleeperOnBallast(Case):
     def check_parameters(self, p):
         problems = sc.check(p)
-        if p["particle_shape"] == "cluster":
-            problems.append("particle_shape='cluster' is not available yet for this case (README, 'What is missing')")
+        if p["particle_shape"] == "cluster" and p["dem_driver"] != "yade":
+            problems.append("particle_shape='cluster' runs on dem_driver='yade' only (YADE's clumps; the standalone "
+                            "driver is the polyhedra library's)")
         return problems
 
     @staticmethod
@@ -67,8 +86,11 @@ class SleeperOnBallast(Case):
         return [("bed", self.dem_script(p, "bed.py", os.path.join(out, "parameters.json"), out))]
 
     def dem_command(self, p, endpoint, out):
-        """dem.py (YADE) or dem_driver.py (standalone) on dem_threads threads."""
+        """dem.py (YADE), dem_cluster.py (YADE, particle_shape = "cluster") or dem_driver.py (standalone) on
+        dem_threads threads."""
         script = "dem.py" if p["dem_driver"] == "yade" else "dem_driver.py"
+        if p["particle_shape"] == "cluster":
+            script = "dem_cluster.py"
         return self.dem_script(p, script, os.path.join(out, "parameters.json"), endpoint, out)
 
     @staticmethod
@@ -161,7 +183,9 @@ class SleeperOnBallast(Case):
         results.write_timeseries(os.path.join(out, "timeseries.h5"), {
             "dem": {"time": times["dem"], "interface_force": series["interface_force"],
                     "sensor_top_force": readings, "sensor_pressure": readings / area, "sensor_height": series["sensor_height"],
-                    "interface_work_dem": series["interface_work_dem"], "interface_work_fem": series["interface_work_fem"]},
+                    "interface_work_dem": series["interface_work_dem"], "interface_work_fem": series["interface_work_fem"],
+                    **({"mechanical_energy_gain": series["mechanical_energy_gain"]}
+                       if "mechanical_energy_gain" in series else {})},
             "fem": {"time": times["fem"], "settlement": settlement, "applied_load": load, "max_strain_xx": strain,
                     **{k: v for k, v in monitor.items() if k != "time"}}})
         self.plots(out, p, t_fem, load, settlement, t_dem, interface, weight, phases, pressures, estimates, series)
@@ -175,6 +199,14 @@ class SleeperOnBallast(Case):
         ]
         checks.append({"name": "load levels without a sensor reading", "value": sum(1 for c in counts.values() if c == 0),
                        "limit": 0})
+        extra = {}
+        if p["particle_shape"] == "cluster":
+            bound = energy_bound(series, dem)
+            checks.append({"name": "ballast energy gain above the sleeper's work on it + its contacts' elastic energy at "
+                                   "the start (fraction of that work; dissipative contacts can only lose energy)",
+                           "value": bound, "limit": ENERGY_BOUND_LIMIT})
+            extra = {"energy_bound": bound, "cluster_level": p["cluster_level"], "cluster_spheres": dem["cluster_spheres"],
+                     "particle_mass_kg": dem["particle_mass_kg"]}
         return {
             **results.participant_summary(dem, fem),
             "metrics": {"settlement_m": settlement_final, "settlement_after_cycles_m": settlement_cycles,
@@ -189,7 +221,7 @@ class SleeperOnBallast(Case):
                         "bed_porosity": bed["porosity"], "bed_reused": bed["reused"],
                         "dem_dt_s": dem["dt"], "critical_time_step_s": dem["critical_time_step_s"],
                         "interface_work_dem_j": dem["interface_work_dem_j"], "interface_work_fem_j": dem["interface_work_fem_j"],
-                        "sensor_readings": counts},
+                        "sensor_readings": counts, **extra},
             "reference": {"applied_load_at_hold_N": applied_hold, "sensor_pressure_estimates_kPa": estimates,
                           "sleeper_weight_N": weight},
             "relative_error": {"interface_force_at_hold": hold_error, "interface_energy": energy_error},

@@ -7,6 +7,8 @@ library without YADE (driver_engine.DriverStage, by ctypes: `python3 bed.py`, th
 the small interface of StageBase, and every decision of the preparation (when a layer has landed, where the plate
 goes, what is trimmed) is made here, from the states the stage reports. Given the same stones, both drivers give the
 same bed, bit for bit, on the CPU reference with one thread (tests/cases/sleeper_driver_equivalence.py).
+A cluster bed (particle_shape = "cluster": cluster_engine.ClusterStage, YADE's clumps) is made from the polyhedra bed
+of the same parameters by prepare_clusters: its stones replaced by their clusters, then the stages settle and seat.
 numpy and h5py only.
 """
 import json
@@ -470,11 +472,15 @@ def prepare(p, path, Stage):
     return log
 
 
-def save(path, p, scene, bed, log, seat_height, time_step, plates, driver):
-    """Writes the bed file whole (a temporary name, then a rename): bodies, seat height, the stage log."""
+def save(path, p, scene, bed, log, seat_height, time_step, plates, driver, stone_volumes=None):
+    """Writes the bed file whole (a temporary name, then a rename): bodies, seat height, the stage log.
+    stone_volumes: the stones' volumes where they are not the dilated polyhedra's (clusters)."""
     import h5py
     stones = bed.kind == STONE
-    volume = sum(sc.stone_volume(scene, s, d) for s, d in zip(bed.shape[stones], bed.size[stones]))
+    if stone_volumes is None:
+        volume = sum(sc.stone_volume(scene, s, d) for s, d in zip(bed.shape[stones], bed.size[stones]))
+    else:
+        volume = float(np.sum(np.asarray(stone_volumes)[stones]))
     sensor_volume = np.sum(bed.kind == SENSOR) * math.prod(sc.SENSOR_SIZE)
     length, width, _ = scene["bed"]
     porosity = 1.0 - (volume + sensor_volume) / math.prod(scene["bed"])
@@ -500,6 +506,49 @@ def save(path, p, scene, bed, log, seat_height, time_step, plates, driver):
     say(f"bed saved: {path} ({int(np.sum(stones))} stones, porosity {porosity:.3f}, sleeper bottom at {seat_height:.4f} m)")
 
 
+def polyhedron_parameters(p):
+    """The parameters of the polyhedra bed a cluster bed is made from: p's, as polyhedra (cluster_level at case.toml's
+    default, which a polyhedra bed's key holds: the polyhedra runs' own bed is reused)."""
+    return {**p, "particle_shape": "polyhedron", "cluster_level": "coarse"}
+
+
+def prepare_clusters(p, path, Stage, polyhedron_stage):
+    """The cluster bed (particle_shape = "cluster"): the polyhedra bed of the same parameters (prepared first with
+    `polyhedron_stage` unless its file is kept), each stone replaced by its library cluster at the same pose and size
+    (the Stage puts it inside the dilated polyhedron, so no two clusters overlap), let settle under gravity as a
+    generated layer does (settle_max_s, settle_speed_m_s; the clusters are thinner than the polyhedra and the bed
+    sinks onto them), then seated as the polyhedra bed was (stage seat). The step is the clusters' contact law's for
+    the design loads (the Stage's first stage)."""
+    source = polyhedron_parameters(p)
+    source_path = sc.bed_path(source)
+    with bedcache.exclusive(source_path) as reused:
+        if reused:
+            say(f"polyhedra bed found: {source_path}")
+        else:
+            say(f"preparing the polyhedra bed first: {source_path}")
+            prepare(source, source_path, polyhedron_stage)
+    bed, attrs = load(source_path)
+    scene = sc.build(p)
+    log = json.loads(attrs["stage_log"])
+    log.append({"stage": "clusters", "source_bed": source_path, "bodies": len(bed),
+                "source_seat_height_m": float(attrs["seat_height_m"]), "source_porosity": float(attrs["porosity"])})
+    bed.velocity[:] = 0.0
+    bed.angular_velocity[:] = 0.0
+    stage = Stage(scene, bed, p, None)
+    dt = stage.dt
+    design = sc.design_contact_loads(p, scene, "preparation")
+    say(f"{len(bed)} bodies as {p['cluster_level']} clusters; time step {dt:.3e} s: {p['critical_step_fraction']:g} x the "
+        f"clusters' critical step for contacts of {design['contact_force_n']:.0f} N and impacts at "
+        f"{design['impact_speed_m_s']:.2f} m/s")
+    volumes = stage.stone_volumes()
+    settle(stage, p["settle_max_s"], p["settle_speed_m_s"], log, "clusters")
+    stage.finish()
+    seat_load = {s["name"]: s for s in scene["stages"]}["seat"]["load_n"]
+    seat_height, history = seat(Stage, scene, bed, p, dt, log, "seat", seat_load)
+    save(path, p, scene, bed, log, seat_height, dt, {"seat": history}, Stage.DRIVER, stone_volumes=volumes)
+    return log
+
+
 def load(path):
     """(Bed, attrs) of a bed file."""
     import h5py
@@ -520,13 +569,16 @@ def stone_figures(scene, bed):
             "mean_stone_size_m": float(np.mean(bed.size[stones])), "max_stone_size_m": float(np.max(bed.size[stones]))}
 
 
-def main(argv, Stage):
-    """bed.py's command line: prepares the bed of the parameters with `Stage`'s driver unless its file exists."""
+def main(argv, Stage, polyhedron_stage=None):
+    """bed.py's command line: prepares the bed of the parameters with `Stage`'s driver unless its file exists (clusters:
+    from the polyhedra bed, prepared with `polyhedron_stage` unless kept; prepare_clusters)."""
     p, out = parameters_from_command_line(argv)
     path = sc.bed_path(p)
     with bedcache.exclusive(path) as reused:
         if reused:
             say(f"bed found: {path} (key {sc.bed_key(p)}), no preparation")
+        elif p["particle_shape"] == "cluster":
+            prepare_clusters(p, path, Stage, polyhedron_stage)
         else:
             prepare(p, path, Stage)
     bed, attrs = load(path)

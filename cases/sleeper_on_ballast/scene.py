@@ -54,6 +54,7 @@ BED_FORMAT = 1                        # version of the bed file layout (part of 
 # for the default bed on 2 cores, 7 min for the seed's on the GPU), and a hash of the Python alone would miss the C++
 # library that moves the stones.
 PREPARATION_VERSION = 1
+CLUSTER_BED_FORMAT = 2                # version of the cluster beds' clusters (part of a cluster bed's key)
 
 
 # ---------------------------------------------------------------------------------------------------
@@ -156,6 +157,69 @@ def mean_stone_volume(scene, samples=20000):
     sizes = sample_sizes(scene["gradation"], rng, samples)
     shapes = rng.integers(len(templates(scene)), size=samples)
     return float(np.mean([stone_volume(scene, s, d) for s, d in zip(shapes, sizes)]))
+
+
+# The stones as sphere clusters (particle_shape = "cluster": cluster_engine.py).
+# The scale of a cluster in its dilated polyhedron is found by bisection to this fraction of the stone's size.
+CONTAINMENT_TOLERANCE = 1e-6
+
+_CLUSTER_TEMPLATES = {}
+
+
+def _sphere_in_dilated(normals, offsets, core, centre, radius, dilation):
+    """Whether the ball (centre, radius) lies in core + ball(dilation), the core convex with face planes n.x <= d:
+    for radius > dilation iff the centre lies at least radius - dilation inside every face plane (the exact inner
+    distance of a convex polytope), else iff its distance to the core (non-negative least squares over convex
+    combinations of the vertices; Lawson & Hanson 1974 ch. 23) is at most dilation - radius."""
+    inside = float(np.min(offsets - normals @ centre))
+    if radius > dilation:
+        return inside >= radius - dilation
+    if inside >= 0.0:
+        return True
+    from scipy.optimize import nnls
+    weight = 1e6
+    weights, _ = nnls(np.vstack([core.T, weight * np.ones(len(core))]), np.concatenate([centre, [weight]]))
+    return float(np.linalg.norm(core.T @ weights - centre)) <= dilation - radius
+
+
+def cluster_templates(level, fraction):
+    """Per library stone: {spheres (n, 4) in the stone's frame at unit size, volume and principal inertia per unit
+    density at that size}. The cluster is scaled to the hull whose largest extent is the stone's size, and shrunk
+    where needed (bisection to CONTAINMENT_TOLERANCE; by at most 1.3 % on the library at fraction 0.1) so that every
+    member lies inside the dilated polyhedron of that size (core x (1 - 2 fraction), plus r_d = fraction x size): a
+    cluster put in place of a polyhedron of the bed touches nothing the polyhedron did not."""
+    key = (level, fraction)
+    if key in _CLUSTER_TEMPLATES:
+        return _CLUSTER_TEMPLATES[key]
+    templates = []
+    for stone in library():
+        cluster = stone["clusters"][level]
+        spheres = np.asarray(cluster["spheres"], float) / stone["feret"]
+        core = np.asarray(stone["vertices"], float) / stone["feret"] * (1.0 - 2.0 * fraction)
+        polytope = ballast_clusters.ConvexStone(core, stone["triangles"])
+
+        def fits(scale):
+            return all(_sphere_in_dilated(polytope.planeNormals, polytope.planeOffsets, core, scale * s[:3],
+                                          scale * s[3], fraction) for s in spheres)
+        low, high = 0.0, 1.0
+        if fits(1.0):
+            low = 1.0
+        while high - low > CONTAINMENT_TOLERANCE:
+            middle = 0.5 * (low + high)
+            low, high = (middle, high) if fits(middle) else (low, middle)
+        templates.append({"spheres": spheres * low, "volume": cluster["volume"] / stone["feret"] ** 3 * low ** 3,
+                          "inertia": np.asarray(cluster["principalInertia"], float) / stone["feret"] ** 5 * low ** 5,
+                          "scale": low})
+    _CLUSTER_TEMPLATES[key] = templates
+    return templates
+
+
+def cluster_of(scene, level, shape, size):
+    """(member spheres (n, 4) in the stone's frame [m], mass [kg], principal inertia [kg m^2]) of library stone
+    `shape` at characteristic length `size`, inside its dilated polyhedron (cluster_templates)."""
+    t = cluster_templates(level, scene["dilation_fraction"])[shape]
+    density = scene["material"]["density"]
+    return t["spheres"] * size, density * t["volume"] * size ** 3, density * t["inertia"] * size ** 5
 
 
 # ---------------------------------------------------------------------------------------------------
@@ -277,6 +341,9 @@ def check(p):
         problems.append(f"triangles_per_stone={p['triangles_per_stone']}: a closed convex triangulated surface has an "
                         f"even number of triangles (2V - 4 for V vertices); use {p['triangles_per_stone'] - 1} or "
                         f"{p['triangles_per_stone'] + 1}")
+    if p["particle_shape"] == "cluster" and p["triangles_per_stone"]:
+        problems.append(f"triangles_per_stone={p['triangles_per_stone']} with particle_shape='cluster': the clusters are "
+                        "fitted inside the library's own hulls (cluster_templates); use triangles_per_stone=0")
     return problems
 
 
@@ -522,10 +589,12 @@ def bed_key(p):
 
 
 def bed_values(p):
-    """What defines a bed: the file layout (BED_FORMAT), the parameters of BED_PARAMETERS, those of
-    ADDED_BED_PARAMETERS that differ from their value before they existed, a piece-wise gradation's bins, and the
-    preparation code's version (PREPARATION_VERSION, from 2 on)."""
+    """What defines a bed: the file layout (BED_FORMAT; a cluster bed's CLUSTER_BED_FORMAT), the parameters of
+    BED_PARAMETERS, those of ADDED_BED_PARAMETERS that differ from their value before they existed, a piece-wise
+    gradation's bins, and the preparation code's version (PREPARATION_VERSION, from 2 on)."""
     values = {"format": BED_FORMAT, **{name: p[name] for name in BED_PARAMETERS}}
+    if p["particle_shape"] == "cluster":
+        values["cluster_format"] = CLUSTER_BED_FORMAT
     values.update({name: p[name] for name, before in ADDED_BED_PARAMETERS.items() if p[name] != before})
     if p["size_distribution"] == "piecewise":
         values.update({name: p[name] for name in PIECEWISE_PARAMETERS})

@@ -6,7 +6,7 @@ that runs the bed: YADE's PolyhedraGpuEngine (yade_engine.YadeStage, in `railcos
 library without YADE (driver_engine.DriverStage, by ctypes: `python3 bed.py`, the GPU machine's path); both implement
 the small interface of StageBase, and every decision of the preparation (when a layer has landed, where the plate
 goes, what is trimmed) is made here, from the states the stage reports. Given the same stones, both drivers give the
-same bed, bit for bit, on the CPU reference with one thread (tests/cases/sleeper_driver_equivalence.py).
+same bed, bit for bit, on the CPU reference with one thread (tests/drivers/driver_equivalence.py).
 A cluster bed (particle_shape = "cluster": cluster_engine.ClusterStage, YADE's clumps) is made from the polyhedra bed
 of the same parameters by prepare_clusters: its stones replaced by their clusters, then the stages settle and seat.
 numpy and h5py only.

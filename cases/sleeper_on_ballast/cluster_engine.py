@@ -20,6 +20,7 @@ from yade import utils
 from yade.minieigenHP import Quaternion, Vector3
 
 import preparation as prep
+import yade_engine as ye  # YadeClock
 import scene as sc  # also puts the shape library (yade_engines/clusters) on the path
 import pack_ballast  # noqa: E402  (the shape library's clump builder)
 
@@ -198,7 +199,7 @@ def contact_elastic_energy():
     return total
 
 
-class ClusterStage(prep.StageBase):
+class ClusterStage(ye.YadeClock, prep.StageBase):
     """A preparation stage as a YADE scene of clumps (O.reset() first): facets, clumps, sensor boxes, the BallastMat
     law, QuaternionIntegrator; the plate's force is summed over every step of a batch (its mean, as the polyhedra
     library reports it)."""
@@ -230,14 +231,6 @@ class ClusterStage(prep.StageBase):
     def _add_plate_force(self):
         self.force_sum += sum(O.forces.f(b)[2] for b in self.plate)
         self.force_steps += 1
-
-    @property
-    def dt(self):
-        return O.dt
-
-    @property
-    def time(self):
-        return O.time - self.start
 
     @property
     def mean_contacts(self):

@@ -2,7 +2,6 @@
 # load pattern; records the interface force, the sensors' top-face forces and the energy audit (loadrun.py, shared with
 # the standalone driver dem_driver.py).
 # Run by `railcosim run` as: railcosim yade dem.py PARAMETERS.json ENDPOINT OUTDIR (after bed.py, which leaves bed.json)
-import json
 import math
 import os
 import sys
@@ -15,7 +14,6 @@ CASE_DIR = os.path.join(os.environ["RAILCOSIM_ROOT"], "cases", "sleeper_on_balla
 sys.path.insert(0, CASE_DIR)
 import loadrun  # noqa: E402
 import preparation as prep  # noqa: E402
-import scene as sc  # noqa: E402
 import yade_engine as ye  # noqa: E402  (also O, FrictMat, Vector3 ...)
 from yade import O  # noqa: E402
 from yade.minieigenHP import Vector3  # noqa: E402
@@ -23,11 +21,7 @@ from yade.wrapper import FrictMat  # noqa: E402
 
 dem = CoupledDem()  # the run's parameters, endpoint and results folder, from `railcosim run`
 p = dem.parameters
-scene = sc.build(p)
-with open(os.path.join(dem.out, "bed.json")) as f:
-    bed_record = json.load(f)
-bed, attrs = prep.load(bed_record["path"])
-dem.parameters["duration_s"] = sc.load_run_duration(p)  # the windows of the pattern (and any rest after it)
+scene, bed_record, bed, attrs = loadrun.prepared_bed(p, dem.out)  # sets p["duration_s"]
 
 # 1. Materials: ballast, smooth box walls, and the sleeper's surface (loadrun.sleeper_material).
 stone_mat, wall_mat = ye.materials(scene)

@@ -3,7 +3,6 @@
 # through FemCouplingEngine's mesh contacts (contactModel 'meshContacts', the BallastMat law). Records what dem.py
 # records (loadrun.Sensors) and the ballast's mechanical energy for the energy bound.
 # Run by `railcosim run` as: railcosim yade dem_cluster.py PARAMETERS.json ENDPOINT OUTDIR (after bed.py)
-import json
 import math
 import os
 import sys
@@ -17,17 +16,12 @@ sys.path.insert(0, CASE_DIR)
 import cluster_engine as ce  # noqa: E402  (also O, BallastMat ...)
 import loadrun  # noqa: E402
 import preparation as prep  # noqa: E402
-import scene as sc  # noqa: E402
 from yade import O  # noqa: E402
 from yade.wrapper import BallastMat  # noqa: E402
 
 dem = CoupledDem()  # the run's parameters, endpoint and results folder, from `railcosim run`
 p = dem.parameters
-scene = sc.build(p)
-with open(os.path.join(dem.out, "bed.json")) as f:
-    bed_record = json.load(f)
-bed, attrs = prep.load(bed_record["path"])
-dem.parameters["duration_s"] = sc.load_run_duration(p)  # the windows of the pattern (and any rest after it)
+scene, bed_record, bed, attrs = loadrun.prepared_bed(p, dem.out)  # sets p["duration_s"]
 
 # 1. Time step (loadrun.time_step): the clusters' contact law for the load run's design loads; the damping ratio from
 #    a probe contact (an empty scene, before the bed is built).

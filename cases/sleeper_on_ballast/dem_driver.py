@@ -17,7 +17,6 @@ sys.path[:0] = [HERE, os.path.join(os.path.dirname(os.path.dirname(HERE)), "pyth
 import driver_engine as de  # noqa: E402
 import loadrun  # noqa: E402
 import preparation as prep  # noqa: E402
-import scene as sc  # noqa: E402
 from railcosim import dem as coupled_dem  # noqa: E402  (coupling options; YADE-free)
 from railcosim import polyhedra_driver, results, solvers  # noqa: E402
 
@@ -26,11 +25,8 @@ if len(sys.argv) != 4:
 parameters_path, endpoint, out = sys.argv[1:]
 with open(parameters_path) as f:
     p = json.load(f)
-scene = sc.build(p)
-with open(os.path.join(out, "bed.json")) as f:
-    bed_record = json.load(f)
-bed, attrs = prep.load(bed_record["path"])
-duration = sc.load_run_duration(p)
+scene, bed_record, bed, attrs = loadrun.prepared_bed(p, out)
+duration = p["duration_s"]
 
 # 1.-2. The box and the prepared bed: stones and the five sensor blocks (dem.py's scene, loadrun's walls).
 seat = float(attrs["seat_height_m"])

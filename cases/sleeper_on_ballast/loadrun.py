@@ -4,12 +4,25 @@ interface force, the sensors' top-face forces and heights). A driver hands Senso
 frames(indices) (body-frame positions and orientations w,x,y,z of those bed bodies), contacts() (preparation's
 contact arrays, bed indices), interface_force (the force sent to the FEM side, 3) and surface_force (the stones'
 force on the surface, 3)."""
+import json
 import math
+import os
 
 import numpy as np
 
 import preparation as prep
 import scene as sc
+
+
+def prepared_bed(p, out):
+    """(scene, bed record, bed, bed file attributes) of a load run from the bed bed.py left in `out` (bed.json); sets
+    p["duration_s"] to the windows of the pattern (and any rest after it)."""
+    scene = sc.build(p)
+    with open(os.path.join(out, "bed.json")) as f:
+        bed_record = json.load(f)
+    bed, attrs = prep.load(bed_record["path"])
+    p["duration_s"] = sc.load_run_duration(p)
+    return scene, bed_record, bed, attrs
 
 
 def sleeper_material(p):

@@ -92,7 +92,20 @@ def contacts(engine, index_of_body):
             "overlap": overlap}
 
 
-class YadeStage(prep.StageBase):
+class YadeClock:
+    """A preparation stage's step and time on YADE's clock (O.dt, O.time since the stage's `start`): YadeStage's and
+    cluster_engine.ClusterStage's."""
+
+    @property
+    def dt(self):
+        return O.dt
+
+    @property
+    def time(self):
+        return O.time - self.start
+
+
+class YadeStage(YadeClock, prep.StageBase):
     """A preparation stage as a YADE scene (O.reset() first): facets, spheres, one PolyhedraGpuEngine."""
 
     DRIVER = DRIVER
@@ -114,14 +127,6 @@ class YadeStage(prep.StageBase):
             O.dt = p["critical_step_fraction"] * self.engine.criticalTimeStep(design["contact_force_n"],
                                                                               design["impact_speed_m_s"])
         self.start = O.time
-
-    @property
-    def dt(self):
-        return O.dt
-
-    @property
-    def time(self):
-        return O.time - self.start
 
     @property
     def mean_contacts(self):

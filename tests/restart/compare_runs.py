@@ -11,8 +11,11 @@ import math
 import os
 import sys
 
-# Keys whose values are wall-clock measurements or describe how the run went, not what it computed.
+# Keys whose values are wall-clock measurements or describe how the run went, not what it computed. "bed_reused" and
+# "reused" say whether the case's bed came from the bed cache: a reference run on a fresh machine prepares the bed that
+# the run compared with it then reuses.
 NOT_RESULTS = {"wall_time_s", "total_wall_time_s", "time_limit_s", "solvers", "checkpoints", "resumed_from", "error",
+               "bed_reused", "reused",
                "bridge_time_s", "dem_bridge_time_s", "fem_bridge_time_s", "force_mapping_time_s",
                "bridge_time_per_exchange_s", "checkpoint_time_s", "restart_checkpoint_time_s", "mapping_time_s",
                "wait_time_s", "polyhedra_time_s",

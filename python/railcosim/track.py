@@ -7,7 +7,7 @@ at `sleeper_spacing`, each half a sleeper long, and ends at end_x = (sleepers - 
 The ballast lies under the sleepers, between frictionless mirror walls at x = 0, x = end_x and y = 0 (the planes of
 symmetry) and a frictionless wall at the shoulder's edge, on a base wall whose contact stiffness stands for the
 subballast and the formation (Irazábal 2017 §7.2.1, Table 7.1), or (subgrade = "layers") on FreeFEM subgrade layers
-in the track's mesh, coupled on their top face (built, not yet stable: cases/track_stiffness/README.md).
+in the track's mesh, coupled on their top face (implicit scheme only: cases/track_stiffness/README.md).
 
 A half track (x_symmetry = false, cases/train_passage: a moving wheel breaks the symmetry in x) holds `sleepers`
 whole sleepers at 0, spacing, ... and runs from start_x = -spacing/2 to end_x, both the middle of a crib, with the

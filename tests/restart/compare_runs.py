@@ -11,15 +11,17 @@ import math
 import os
 import sys
 
-# Keys whose values are wall-clock measurements or describe how the run went, not what it computed. "bed_reused" and
-# "reused" say whether the case's bed came from the bed cache: a reference run on a fresh machine prepares the bed that
-# the run compared with it then reuses.
+# Keys whose values are wall-clock measurements or describe how the run went, not what it computed.
 NOT_RESULTS = {"wall_time_s", "total_wall_time_s", "time_limit_s", "solvers", "checkpoints", "resumed_from", "error",
-               "bed_reused", "reused",
                "bridge_time_s", "dem_bridge_time_s", "fem_bridge_time_s", "force_mapping_time_s",
                "bridge_time_per_exchange_s", "checkpoint_time_s", "restart_checkpoint_time_s", "mapping_time_s",
                "wait_time_s", "polyhedra_time_s",
                "assemblySeconds", "factorisationSeconds", "meanStepSeconds", "bridgeSeconds", "waitSeconds"}
+
+
+# Dotted paths of the same kind: whether the case's bed came from the bed cache (summary.json and dem_info.json). A
+# reference run on a fresh machine prepares the bed that the run compared with it then reuses.
+NOT_RESULT_PATHS = {"metrics.bed_reused", "bed.reused"}
 
 
 def flatten(value, prefix=""):
@@ -51,7 +53,7 @@ def compare_json(path_a, path_b):
         a = flatten(json.load(f))
     with open(path_b) as f:
         b = flatten(json.load(f))
-    differences = {key: relative(a.get(key), b.get(key)) for key in sorted(set(a) | set(b))}
+    differences = {key: relative(a.get(key), b.get(key)) for key in sorted((set(a) | set(b)) - NOT_RESULT_PATHS)}
     return {key: d for key, d in differences.items() if d > 0}
 
 

@@ -29,12 +29,14 @@ start=$(date +%s)
 "$nvcc" $common -arch=$arch ${EXTRA_NVCC_FLAGS:-} -Xcompiler -fopenmp --expt-relaxed-constexpr -Xptxas -v \
   -c yade_engines/polyhedra/cuda/PolyhedraCudaBackend.cu -o "$build/cuda.o" 2> "$out/ptxas.txt" &
 for f in yade_engines/polyhedra/PolyhedraSystem.cpp yade_engines/polyhedra/cpu/PolyhedraCpuBackend.cpp yade_engines/polyhedra/PolyhedraShapes.cpp \
-         bridge/src/io/Log.cpp tests/polyhedra/PolyhedraGpuComparison.cpp benchmarks/gpu/PolyhedraBench.cpp; do
+         bridge/src/io/Log.cpp bridge/src/io/StateStream.cpp tests/polyhedra/PolyhedraGpuComparison.cpp \
+         benchmarks/gpu/PolyhedraBench.cpp; do
   g++ $common $eigen -fopenmp -I/usr/local/cuda/include -c "$f" -o "$build/$(basename "$f" .cpp).o" &
 done
 wait
 grep -A2 -E "narrowPhaseKernel|filterKernel|wallForcesKernel|forcesKernel" "$out/ptxas.txt" | grep -E "stack|registers" || true
-lib="$build/cuda.o $build/PolyhedraSystem.o $build/PolyhedraCpuBackend.o $build/PolyhedraShapes.o $build/Log.o"
+lib="$build/cuda.o $build/PolyhedraSystem.o $build/PolyhedraCpuBackend.o $build/PolyhedraShapes.o $build/Log.o \
+  $build/StateStream.o"
 "$nvcc" -arch=$arch $lib "$build/PolyhedraGpuComparison.o" -o "$build/polyhedra_gpu_comparison" -Xcompiler -fopenmp -lgomp
 "$nvcc" -arch=$arch $lib "$build/PolyhedraBench.o" -o "$build/polyhedra_bench" -Xcompiler -fopenmp -lgomp
 echo "build took $(( $(date +%s) - start )) s"

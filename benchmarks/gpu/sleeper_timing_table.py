@@ -5,8 +5,9 @@ minutes and % of the total. Usage: sleeper_timing_table.py RUN_FOLDER [LABEL] (p
 From the run's summary.json (total wall time, the preparation's) and dem_info.json (the DEM process's clocks): DEM =
 the polyhedra system's stepping (bed preparation: its whole wall time, which is DEM and its Python stage logic);
 FEM = the DEM side's wait for the FEM solver; coupling = bridge (encoding, transfer) + force lumping + the implicit
-scheme's snapshots; other = the rest of the coupled run (the DEM script's records, sensors, files; start-up and the
-post-processing)."""
+scheme's snapshots; script = the DEM script's own share of each window (sensor readings, time series; runs from
+2026-11-29 on); other = the rest of the coupled run (start-up, the post-processing, and the script's share when not
+measured)."""
 import json
 import os
 import sys
@@ -22,6 +23,8 @@ def table(folder, label):
     rows = [("bed preparation (DEM)", preparation), ("load run: DEM", dem["polyhedra_time_s"]),
             ("load run: FEM", dem["wait_time_s"]),
             ("load run: coupling", dem["bridge_time_s"] + dem["mapping_time_s"] + dem["checkpoint_time_s"])]
+    if "script_time_s" in dem:
+        rows.append(("load run: script (sensors, records)", dem["script_time_s"]))
     rows.append(("other", total - sum(t for _, t in rows)))
     steps = dem["implicit_passes"] * dem["subcycles"] if dem["scheme"] == "implicit" else dem["steps"]
     lines = [f"| {label} | min | % |", "|---|---|---|"]

@@ -67,7 +67,7 @@ class Window:
         return engine.states(indices)[:2]
 
     def contacts(self):
-        return engine.contacts()
+        return engine.contacts(sensors.indices)  # the sensors' alone: Sensors.top_forces reads no other
 
     @property
     def interface_force(self):
@@ -90,8 +90,10 @@ if restart and restart["resume_from"]:
 else:
     recorder = results.DemRecorder(out)
 wall_start = time.monotonic()
+script_time = 0.0  # this script's own share of each window: sensor readings, time series, checkpoints' files
 for w in range(first, windows):
     engine.window()
+    window_done = time.monotonic()
     figures = engine.figures()
     recorder.append(time=figures["time"], **sensors.record(window, w + 1), interface_work_dem=figures["interface_work_dem"],
                     interface_work_fem=figures["interface_work_fem"])
@@ -102,6 +104,7 @@ for w in range(first, windows):
     if (w + 1) % every == 0:
         print(f"t={figures['time']:.4f} s  window {w + 1}/{windows}  sleeper carried "
               f"{figures['total_force_z'] / 1e3:.2f} kN  {time.monotonic() - wall_start:.1f} s", flush=True)
+    script_time += time.monotonic() - window_done
 engine.finalize()
 wall_time = time.monotonic() - wall_start
 # 5. What the post-processing reads (dem_info.json): dem.py's fields, the coupling figures under FemCouplingEngine's names.
@@ -116,8 +119,9 @@ info = {"subcycles": subcycles, "exchanges": int(figures["windows"]), "scheme": 
         "particles": len(stones), "stones": len(stones), "sensors": len(sensors.indices), "particle_mass_kg": mass,
         "critical_time_step_s": critical, "design_contact_force_n": design["contact_force_n"], "seat_height_m": seat,
         "sensor_period_windows": sensors.every, "polyhedra_backend": backend, "dem_driver": de.DRIVER,
-        "polyhedra_time_s": figures["polyhedra_time"], "bed": bed_record}
+        "polyhedra_time_s": figures["polyhedra_time"], "script_time_s": script_time, "bed": bed_record}
 results.save_dem_outputs(out, recorder, info)
 print(f"done: {windows * subcycles} steps in {wall_time:.1f} s; DEM {figures['polyhedra_time']:.1f} s, FEM wait "
-      f"{figures['wait_time']:.1f} s, bridge {figures['bridge_time']:.3f} s over {int(figures['windows'])} exchanges",
+      f"{figures['wait_time']:.1f} s, bridge {figures['bridge_time']:.3f} s over {int(figures['windows'])} exchanges, "
+      f"script {script_time:.1f} s",
       flush=True)

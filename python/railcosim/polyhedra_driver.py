@@ -64,6 +64,7 @@ def _library():
             "rcp_wall_force": (i, [p, _I, i, _D]), "rcp_time": (d, [p]), "rcp_stone_count": (i, [p]),
             "rcp_templates": (i, [p]), "rcp_mean_contacts": (d, [p]), "rcp_backend": (i, [p, s, i]),
             "rcp_states": (i, [p, _I, i, _D, _D, _D, _D, _D]), "rcp_contact_count": (i, [p]),
+            "rcp_contact_count_of": (i, [p, _I, i]),
             "rcp_contacts": (i, [p, _I, _I, _I, _D, _D, _D, _D]),
             "rcp_connect": (i, [p, s, s, s, d, d, i, d, d, i, d, i, _D]), "rcp_window": (i, [p]),
             "rcp_coupling_figures": (i, [p, _D]), "rcp_surface_triangles": (i, [p, _I]), "rcp_finalize": (i, [p]),
@@ -208,10 +209,15 @@ class PolyhedraBed:
                                          0 if chosen is None else chosen.size, *[_pointer(a) for a in (p, q, v, w, m)]))
         return p, q, v, w, m
 
-    def contacts(self):
+    def contacts(self, indices=None):
         """Active contacts of the last force evaluation: {first, second (stone indices; the wall triangle when
-        wall), wall (bool), point, normal, force (on second; (n, 3)), overlap}."""
-        n = self._check(self._lib.rcp_contact_count(self._handle))
+        wall), wall (bool), point, normal, force (on second; (n, 3)), overlap}; with `indices`, only those that these
+        stones take part in (selected on the GPU: a few stones' contacts without the whole bed's)."""
+        if indices is None:
+            n = self._check(self._lib.rcp_contact_count(self._handle))
+        else:
+            chosen = np.ascontiguousarray(indices, dtype=np.int32)
+            n = self._check(self._lib.rcp_contact_count_of(self._handle, _pointer(chosen), chosen.size))
         first, second, wall = (np.zeros(n, np.int32) for _ in range(3))
         point, normal, force, overlap = np.zeros((n, 3)), np.zeros((n, 3)), np.zeros((n, 3)), np.zeros(n)
         if n:

@@ -143,6 +143,29 @@ int main() {
   expect(maxForceDifference <= 1e-9 * maxForce, "max |F_gpu - F_cpu| per contact component [N]", maxForceDifference,
          1e-9 * maxForce);
   expect(maxPointDifference <= 1e-9, "max contact point difference [m]", maxPointDifference, 1e-9);
+  // A few stones read alone (the sensors' path: selected on the device, only they cross): the same contacts and
+  // states as the whole bed's accessors give for them.
+  {
+    const std::vector<std::int32_t> chosen = {0, static_cast<std::int32_t>(gpu.stoneCount() / 2),
+                                              static_cast<std::int32_t>(gpu.stoneCount() - 1)};
+    std::map<Key, ContactRecord> expected;
+    for (const auto& [key, c] : gpuContacts)
+      for (std::int32_t i : chosen)
+        if (c.first == i || (!c.wall && c.second == i)) expected[key] = c;
+    const auto selected = byKey(gpu.contacts(chosen));
+    int differing = static_cast<int>(selected.size() != expected.size());
+    for (const auto& [key, c] : selected) {
+      const auto found = expected.find(key);
+      differing += found == expected.end() || maxDifference({c.force.begin(), c.force.end()},
+                                                            {found->second.force.begin(), found->second.force.end()}) > 0;
+    }
+    std::vector<double> p, q, v, w;
+    gpu.stoneStates(chosen, p, q, v, w);
+    const std::vector<double> all = gpu.positions();
+    for (std::size_t k = 0; k < chosen.size(); ++k)
+      for (int c = 0; c < 3; ++c) differing += p[3 * k + c] != all[3 * chosen[k] + c];
+    expect(differing == 0, "selected stones: contacts or states unlike the whole bed's", differing, 0);
+  }
 
   // 2. Trajectories. The two backends differ by roundoff only (FMA contraction, order of atomic sums),
   //    but the bed is chaotic: the bulk must stay below what a 1e-12 m perturbation of one stone grows

@@ -5,8 +5,10 @@
 
 #include <chrono>
 #include <cmath>
+#include <map>
 #include <sstream>
 #include <string>
+#include <tuple>
 #include <vector>
 
 #include "kernels/HertzMindlin.hpp"
@@ -208,6 +210,50 @@ BOOST_AUTO_TEST_CASE(a_restart_inside_an_implicit_window_keeps_the_window_snapsh
 }
 
 // A stream that does not fit is refused with the reason, and the system keeps its state.
+// (d) A few stones read alone (a sensor's state and contacts every few windows): the same values as the whole bed's
+// accessors give for them. Oracle: positions() ... contacts() of the whole bed, filtered here.
+BOOST_AUTO_TEST_CASE(a_few_stones_read_alone_match_the_whole_bed) {
+  PolyhedraSystem system(bedParameters());
+  buildBed(system);
+  system.step(settleSteps);
+  const std::vector<std::int32_t> chosen = {13, 0, 26}; // the centre stone (neighbours on all sides), two corners
+  std::vector<double> p, q, v, w;
+  system.stoneStates(chosen, p, q, v, w);
+  const std::vector<double> allP = system.positions(), allQ = system.orientations(), allV = system.velocities(),
+                            allW = system.angularVelocities();
+  for (std::size_t k = 0; k < chosen.size(); ++k) {
+    const std::size_t i = static_cast<std::size_t>(chosen[k]);
+    for (int c = 0; c < 3; ++c) {
+      BOOST_TEST(p[3 * k + c] == allP[3 * i + c]);
+      BOOST_TEST(v[3 * k + c] == allV[3 * i + c]);
+      BOOST_TEST(w[3 * k + c] == allW[3 * i + c]);
+    }
+    for (int c = 0; c < 4; ++c) BOOST_TEST(q[4 * k + c] == allQ[4 * i + c]);
+  }
+  auto concerns = [&](const ContactRecord& c) {
+    for (std::int32_t i : chosen)
+      if (c.first == i || (!c.wall && c.second == i)) return true;
+    return false;
+  };
+  std::map<std::tuple<int, int, bool>, ContactRecord> expected;
+  for (const ContactRecord& c : system.contacts())
+    if (concerns(c)) expected[{c.first, c.second, c.wall}] = c;
+  const std::vector<ContactRecord> selected = system.contacts(chosen);
+  BOOST_TEST(expected.size() >= 4u); // the centre stone touches stones, the corners the walls
+  BOOST_TEST(selected.size() == expected.size());
+  bool wallContact = false;
+  for (const ContactRecord& c : selected) {
+    const auto found = expected.find({c.first, c.second, c.wall});
+    BOOST_TEST_REQUIRE((found != expected.end()));
+    wallContact = wallContact || c.wall;
+    for (int k = 0; k < 3; ++k) BOOST_TEST(c.force[k] == found->second.force[k]);
+  }
+  BOOST_TEST(wallContact);
+  BOOST_TEST(system.contacts(std::vector<std::int32_t>{}).empty());
+  BOOST_CHECK_THROW(system.contacts(std::vector<std::int32_t>{27}), railcosim::Error);
+  BOOST_CHECK_THROW(system.stoneStates({-1}, p, q, v, w), railcosim::Error);
+}
+
 BOOST_AUTO_TEST_CASE(state_streams_that_do_not_fit_are_refused) {
   PolyhedraSystem writer(bedParameters());
   buildBed(writer);

@@ -124,9 +124,15 @@ public:
   // Brings back only `parts` (downloadStones | downloadTriangles) of the state: what the facade's per-window accessors
   // (stone states, triangle sums) need, without the contact lists, which dwarf them. Default: everything.
   virtual void downloadParts(HostData& data, int /*parts*/) { download(data); }
+  // Brings back position, velocity and rotation of the stored stones `stones` only, into their places in `data`'s
+  // arrays (a few sensor blocks read every few windows, without the bed). Default: every stone's.
+  virtual void downloadStonesAt(HostData& data, const std::vector<std::int32_t>& /*stones*/) {
+    downloadParts(data, downloadStones);
+  }
   // The active contacts of the last force evaluation, gathered where the lists live: on the GPU only they cross to
-  // the host (a few per stone, instead of every candidate slot with its history), in no particular order.
-  virtual std::vector<ActiveContact> activeContacts(HostData& data) = 0;
+  // the host (a few per stone, instead of every candidate slot with its history), in no particular order. With
+  // `selected` (a flag per stored stone) only the contacts of flagged stones; empty: all.
+  virtual std::vector<ActiveContact> activeContacts(HostData& data, const std::vector<std::uint8_t>& selected) = 0;
   // One in-memory copy of the state arrays (visitStateArrays) where they live: the host arrays for the CPU, device
   // buffers for CUDA (no transfer). restoreSnapshot puts it back and keeps it.
   virtual void saveSnapshot(HostData& data) = 0;

@@ -44,16 +44,16 @@ int BodyFrameStones::add(PolyhedraSystem& system, const std::vector<double>& ver
   return index;
 }
 
-void BodyFrameStones::bodyState(std::size_t i, const std::vector<double>& positions,
+void BodyFrameStones::bodyState(std::size_t i, std::size_t k, const std::vector<double>& positions,
                                 const std::vector<double>& orientations, const std::vector<double>& velocities,
                                 const std::vector<double>& angularVelocities, std::array<double, 3>& position,
                                 std::array<double, 4>& orientation, std::array<double, 3>& velocity,
                                 std::array<double, 3>& angularVelocity) const {
-  const Eigen::Vector3d centre = vector(&positions[3 * i]);
-  const Eigen::Vector3d omega = vector(&angularVelocities[3 * i]);
-  const Eigen::Quaterniond ori = (quaternion(&orientations[4 * i]) * quaternion(principalToBody_[i].data()).conjugate()).normalized();
+  const Eigen::Vector3d centre = vector(&positions[3 * k]);
+  const Eigen::Vector3d omega = vector(&angularVelocities[3 * k]);
+  const Eigen::Quaterniond ori = (quaternion(&orientations[4 * k]) * quaternion(principalToBody_[i].data()).conjugate()).normalized();
   const Eigen::Vector3d origin = centre - ori * vector(centroidInBody_[i].data());
-  const Eigen::Vector3d v = vector(&velocities[3 * i]) + omega.cross(origin - centre);
+  const Eigen::Vector3d v = vector(&velocities[3 * k]) + omega.cross(origin - centre);
   position = {origin[0], origin[1], origin[2]};
   orientation = {ori.w(), ori.x(), ori.y(), ori.z()};
   velocity = {v[0], v[1], v[2]};

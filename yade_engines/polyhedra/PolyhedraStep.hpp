@@ -72,6 +72,11 @@ RAILCOSIM_HOST_DEVICE inline ActiveContact activeContactOf(const ContactSlot& sl
   return c;
 }
 
+// Whether the contact of stone i with `partner` touches a selected stone (a flag per stored stone; null: all are).
+RAILCOSIM_HOST_DEVICE inline bool contactSelected(const std::uint8_t* selected, int i, int partner, bool wall) {
+  return !selected || selected[i] || (!wall && selected[partner]);
+}
+
 // Narrow-phase result of one candidate (kept between the two passes over wall candidates).
 struct ContactGeometry {
   bool touching;

@@ -302,6 +302,8 @@ struct PolyhedraSystem::Implementation {
   }
   // Only `parts` of the state (downloadStones, downloadTriangles) current on the host: the accessors a coupling
   // window calls every window. A later sync() still brings back everything.
+  // The active contacts in user indices; `selected` as PolyhedraBackend::activeContacts takes it (empty: all).
+  std::vector<ContactRecord> contacts(const std::vector<std::uint8_t>& selected);
   void sync(int parts) {
     if (hostCurrent || (partsCurrent & parts) == parts) return;
     backend->downloadParts(data, parts & ~partsCurrent);
@@ -690,14 +692,19 @@ void PolyhedraSystem::setSurfaceKinematics(const std::vector<double>& positions,
   if (m.started) m.backend->uploadSurface(m.data);
 }
 
+// Both setters leave the backend alone when the value is the one it has: the CUDA backend's captured graphs bake the
+// parameters in, and a driver that sets them before every coupling window would otherwise recapture them each time.
 void PolyhedraSystem::setTimeStep(double timeStep) {
   if (!(timeStep > 0.0)) fail("setTimeStep", "timeStep must be > 0 s, got " + std::to_string(timeStep));
+  if (timeStep == implementation_->data.timeStep) return;
   implementation_->data.timeStep = timeStep;
   implementation_->parameters.timeStep = timeStep;
   if (implementation_->started) implementation_->backend->parametersChanged();
 }
 
 void PolyhedraSystem::setGravity(const std::array<double, 3>& gravity) {
+  const Vec3& g = implementation_->data.gravity;
+  if (gravity[0] == g.x && gravity[1] == g.y && gravity[2] == g.z) return;
   implementation_->data.gravity = Vec3{gravity[0], gravity[1], gravity[2]};
   implementation_->parameters.gravity = gravity;
   if (implementation_->started) implementation_->backend->parametersChanged();
@@ -802,6 +809,38 @@ std::vector<double> PolyhedraSystem::angularVelocities() const {
   }
   return result;
 }
+void PolyhedraSystem::stoneStates(const std::vector<std::int32_t>& stones, std::vector<double>& positions,
+                                  std::vector<double>& orientations, std::vector<double>& velocities,
+                                  std::vector<double>& angularVelocities) const {
+  Implementation& m = *implementation_;
+  std::vector<std::int32_t> storedStones(stones.size());
+  for (std::size_t k = 0; k < stones.size(); ++k) {
+    if (stones[k] < 0 || static_cast<std::size_t>(stones[k]) >= m.data.rotation.size())
+      fail("stoneStates", "stone " + std::to_string(stones[k]) + " out of range (" +
+                              std::to_string(m.data.rotation.size()) + " stones)");
+    storedStones[k] = static_cast<std::int32_t>(m.stored(static_cast<std::size_t>(stones[k])));
+  }
+  // Written into the host arrays at their places only: they are not marked current, a later sync() still
+  // brings everything back.
+  if (!m.hostCurrent && (m.partsCurrent & downloadStones) == 0) m.backend->downloadStonesAt(m.data, storedStones);
+  positions.resize(3 * stones.size());
+  velocities.resize(3 * stones.size());
+  orientations.resize(4 * stones.size());
+  angularVelocities.resize(3 * stones.size());
+  for (std::size_t k = 0; k < stones.size(); ++k) {
+    const std::size_t i = static_cast<std::size_t>(storedStones[k]);
+    const auto& r = m.data.rotation[i];
+    for (int c = 0; c < 3; ++c) {
+      positions[3 * k + c] = m.data.position[3 * i + c];
+      velocities[3 * k + c] = m.data.velocity[3 * i + c];
+    }
+    orientations[4 * k] = r.orientation.w, orientations[4 * k + 1] = r.orientation.x;
+    orientations[4 * k + 2] = r.orientation.y, orientations[4 * k + 3] = r.orientation.z;
+    angularVelocities[3 * k] = r.angularVelocity.x, angularVelocities[3 * k + 1] = r.angularVelocity.y;
+    angularVelocities[3 * k + 2] = r.angularVelocity.z;
+  }
+}
+
 std::vector<double> PolyhedraSystem::forces() const {
   implementation_->sync();
   return implementation_->inUserOrder(implementation_->data.force, 3);
@@ -870,11 +909,25 @@ std::vector<double> PolyhedraSystem::triangleContactPoints() const {
   return result;
 }
 
-std::vector<ContactRecord> PolyhedraSystem::contacts() const {
+std::vector<ContactRecord> PolyhedraSystem::contacts() const { return implementation_->contacts({}); }
+
+std::vector<ContactRecord> PolyhedraSystem::contacts(const std::vector<std::int32_t>& stones) const {
   Implementation& m = *implementation_;
+  if (stones.empty()) return {}; // (an empty selection would read as "all" below)
+  std::vector<std::uint8_t> selected(m.data.rotation.size(), 0);
+  for (std::int32_t i : stones) {
+    if (i < 0 || static_cast<std::size_t>(i) >= selected.size())
+      fail("contacts", "stone " + std::to_string(i) + " out of range (" + std::to_string(selected.size()) + " stones)");
+    selected[m.stored(static_cast<std::size_t>(i))] = 1;
+  }
+  return m.contacts(selected);
+}
+
+std::vector<ContactRecord> PolyhedraSystem::Implementation::contacts(const std::vector<std::uint8_t>& selected) {
+  Implementation& m = *this;
   std::vector<ContactRecord> result;
   if (!m.started) return result;
-  const std::vector<ActiveContact> active = m.backend->activeContacts(m.data);
+  const std::vector<ActiveContact> active = m.backend->activeContacts(m.data, selected);
   result.reserve(active.size());
   for (const ActiveContact& a : active) {
     ContactRecord r;

@@ -178,6 +178,11 @@ public:
   std::vector<double> velocities() const;
   std::vector<double> orientations() const;
   std::vector<double> angularVelocities() const;
+  /// The same four of the stones `stones` (addStone indices) only, in that order: on the CUDA backend only these
+  /// stones cross to the host (a few sensor blocks read often, in a bed of 1e5 stones).
+  void stoneStates(const std::vector<std::int32_t>& stones, std::vector<double>& positions,
+                   std::vector<double>& orientations, std::vector<double>& velocities,
+                   std::vector<double>& angularVelocities) const;
   /// Contact forces + torques of the last force evaluation (gravity excluded): 3 per stone.
   std::vector<double> forces() const;
   std::vector<double> torques() const;
@@ -193,6 +198,8 @@ public:
   /// Active contacts at the last force evaluation of the last `step` call, in no particular order; `first`
   /// and `second` are addStone indices (`first` may be the larger one).
   std::vector<ContactRecord> contacts() const;
+  /// The contacts that the stones `stones` (addStone indices) take part in, gathered where the lists live.
+  std::vector<ContactRecord> contacts(const std::vector<std::int32_t>& stones) const;
 
   // Snapshots of the dynamic state, to simulate a stretch of time again (implicit coupling windows) or to restart.
   // The state is everything a later `step` reads: per stone position, velocity, orientation and angular velocity

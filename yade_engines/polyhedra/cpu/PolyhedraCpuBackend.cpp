@@ -110,16 +110,21 @@ constexpr int parallelThreshold = 512;
 
 class CpuBackend final : public PolyhedraBackend {
 public:
-  std::vector<ActiveContact> activeContacts(HostData& d) override {
+  std::vector<ActiveContact> activeContacts(HostData& d, const std::vector<std::uint8_t>& selected) override {
     std::vector<ActiveContact> result;
+    const std::uint8_t* flags = selected.empty() ? nullptr : selected.data();
     for (int i = 0; i < d.stoneCount; ++i) {
       for (int k = 0; k < d.pairCount[i]; ++k) {
         const std::size_t index = static_cast<std::size_t>(i) * d.maxPairs + k;
-        if (d.pairSlots[index].active == 1) result.push_back(activeContactOf(d.pairSlots[index], d.pairOutput[index], i, false));
+        const ContactSlot& slot = d.pairSlots[index];
+        if (slot.active == 1 && contactSelected(flags, i, slot.partner, false))
+          result.push_back(activeContactOf(slot, d.pairOutput[index], i, false));
       }
       for (int k = 0; k < d.wallCount[i]; ++k) {
         const std::size_t index = static_cast<std::size_t>(i) * d.maxWalls + k;
-        if (d.wallSlots[index].active == 1) result.push_back(activeContactOf(d.wallSlots[index], d.wallOutput[index], i, true));
+        const ContactSlot& slot = d.wallSlots[index];
+        if (slot.active == 1 && contactSelected(flags, i, slot.partner, true))
+          result.push_back(activeContactOf(slot, d.wallOutput[index], i, true));
       }
     }
     return result;

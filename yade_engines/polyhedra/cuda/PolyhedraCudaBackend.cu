@@ -275,20 +275,22 @@ __global__ void __launch_bounds__(blockSize)
                     previousWallNormal);
 }
 
-// The active contacts of stone i's lists appended to `out` (up to `capacity`; `count` counts them all).
-__global__ void __launch_bounds__(blockSize)
-    activeContactsKernel(SystemView s, ActiveContact* out, unsigned capacity, unsigned* count) {
+// The active contacts of stone i's lists appended to `out` (up to `capacity`; `count` counts them all); with
+// `selected`, only those of flagged stones (contactSelected).
+__global__ void __launch_bounds__(blockSize) activeContactsKernel(SystemView s, const std::uint8_t* selected,
+                                                                  ActiveContact* out, unsigned capacity,
+                                                                  unsigned* count) {
   const int i = blockIdx.x * blockDim.x + threadIdx.x;
   if (i >= s.stoneCount) return;
   for (int k = 0; k < s.pairCount[i]; ++k) {
     const long long index = static_cast<long long>(i) * s.maxPairs + k;
-    if (s.pairSlots[index].active != 1) continue;
+    if (s.pairSlots[index].active != 1 || !contactSelected(selected, i, s.pairSlots[index].partner, false)) continue;
     const unsigned slot = atomicAdd(count, 1u);
     if (slot < capacity) out[slot] = activeContactOf(s.pairSlots[index], s.pairOutput[index], i, false);
   }
   for (int k = 0; k < s.wallCount[i]; ++k) {
     const long long index = static_cast<long long>(i) * s.maxWalls + k;
-    if (s.wallSlots[index].active != 1) continue;
+    if (s.wallSlots[index].active != 1 || !contactSelected(selected, i, s.wallSlots[index].partner, true)) continue;
     const unsigned slot = atomicAdd(count, 1u);
     if (slot < capacity) out[slot] = activeContactOf(s.wallSlots[index], s.wallOutput[index], i, true);
   }
@@ -386,14 +388,16 @@ public:
   }
 
   // Gathered on the device into a buffer that grows to the largest count seen (a second pass when it had to grow).
-  std::vector<ActiveContact> activeContacts(HostData& d) override {
+  std::vector<ActiveContact> activeContacts(HostData& d, const std::vector<std::uint8_t>& selected) override {
     std::vector<ActiveContact> result;
     if (d.stoneCount == 0) return result;
     if (activeCount_.size() == 0) activeCount_.resize(1);
+    if (!selected.empty()) selected_.upload(selected, stream_);
     for (int pass = 0; pass < 2; ++pass) {
       check(cudaMemsetAsync(activeCount_.get(), 0, sizeof(unsigned), stream_), "memset");
       activeContactsKernel<<<blocks(d.stoneCount), blockSize, 0, stream_>>>(
-          view(d), active_.get(), static_cast<unsigned>(active_.size()), activeCount_.get());
+          view(d), selected.empty() ? nullptr : selected_.get(), active_.get(), static_cast<unsigned>(active_.size()),
+          activeCount_.get());
       check(cudaGetLastError(), "active contacts kernel");
       unsigned count = 0;
       check(cudaMemcpyAsync(&count, activeCount_.get(), sizeof(unsigned), cudaMemcpyDeviceToHost, stream_), "count");
@@ -426,6 +430,19 @@ public:
       triangleWeight_.download(d.triangleWeightSum, stream_);
     }
     check(cudaStreamSynchronize(stream_), "download");
+  }
+
+  // One small copy per stone and array: a handful of stones cost microseconds, the whole bed tens of megabytes.
+  void downloadStonesAt(HostData& d, const std::vector<std::int32_t>& stones) override {
+    const auto copy = [&](void* host, const void* device, std::size_t bytes) {
+      check(cudaMemcpyAsync(host, device, bytes, cudaMemcpyDeviceToHost, stream_), "stone download");
+    };
+    for (std::int32_t i : stones) {
+      copy(&d.position[3 * i], position_.get() + 3 * i, 3 * sizeof(double));
+      copy(&d.velocity[3 * i], velocity_.get() + 3 * i, 3 * sizeof(double));
+      copy(&d.rotation[i], rotation_.get() + i, sizeof(d.rotation[i]));
+    }
+    check(cudaStreamSynchronize(stream_), "stone download");
   }
 
   void download(HostData& d) override {
@@ -728,6 +745,7 @@ private:
   DeviceArray<ContactGeometry> wallGeometry_;
   DeviceArray<unsigned> survivorCount_;
   DeviceArray<ActiveContact> active_; // activeContacts' gathering buffer
+  DeviceArray<std::uint8_t> selected_; // activeContacts' stone flags
   DeviceArray<unsigned> activeCount_;
   // saveSnapshot's copy of the state buffers (forEachStateBuffer pairs them with the live ones).
   struct SavedState {

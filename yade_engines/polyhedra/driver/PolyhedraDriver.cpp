@@ -478,15 +478,24 @@ int rcp_backend(rcp_bed* bed, char* reason, int size) {
 int rcp_states(rcp_bed* bed, const int32_t* indices, int count, double* positions, double* orientations,
                double* velocities, double* angularVelocities, double* masses) {
   return guarded("rcp_states", [&] {
-    const std::vector<double> p = bed->system->positions(), q = bed->system->orientations(),
-                              v = bed->system->velocities(), w = bed->system->angularVelocities();
+    if (indices && count < 0) throw std::invalid_argument("count " + std::to_string(count) + " must be >= 0");
+    std::vector<double> p, q, v, w;
+    if (indices) {
+      const std::vector<std::int32_t> chosen(indices, indices + count);
+      for (std::int32_t i : chosen)
+        if (i < 0 || static_cast<std::size_t>(i) >= bed->frames.size())
+          throw std::invalid_argument("stone " + std::to_string(i) + " out of range");
+      bed->system->stoneStates(chosen, p, q, v, w); // k-th entry: stone indices[k]
+    } else {
+      p = bed->system->positions(), q = bed->system->orientations();
+      v = bed->system->velocities(), w = bed->system->angularVelocities();
+    }
     std::array<double, 3> position, velocity, angularVelocity;
     std::array<double, 4> ori;
     const std::size_t n = indices ? static_cast<std::size_t>(count) : bed->frames.size();
     for (std::size_t k = 0; k < n; ++k) {
       const std::size_t i = indices ? static_cast<std::size_t>(indices[k]) : k;
-      if (i >= bed->frames.size()) throw std::invalid_argument("stone " + std::to_string(i) + " out of range");
-      bed->frames.bodyState(i, p, q, v, w, position, ori, velocity, angularVelocity);
+      bed->frames.bodyState(i, k, p, q, v, w, position, ori, velocity, angularVelocity);
       if (positions) std::copy(position.begin(), position.end(), positions + 3 * k);
       if (orientations) std::copy(ori.begin(), ori.end(), orientations + 4 * k);
       if (velocities) std::copy(velocity.begin(), velocity.end(), velocities + 3 * k);
@@ -500,6 +509,14 @@ int rcp_states(rcp_bed* bed, const int32_t* indices, int count, double* position
 int rcp_contact_count(rcp_bed* bed) {
   return guarded("rcp_contact_count", [&] {
     bed->contacts = bed->system->contacts();
+    return static_cast<int>(bed->contacts.size());
+  }, -1);
+}
+
+int rcp_contact_count_of(rcp_bed* bed, const int32_t* indices, int count) {
+  return guarded("rcp_contact_count_of", [&] {
+    if (!indices || count < 0) throw std::invalid_argument("give the stones' indices and their count");
+    bed->contacts = bed->system->contacts(std::vector<std::int32_t>(indices, indices + count));
     return static_cast<int>(bed->contacts.size());
   }, -1);
 }

@@ -52,13 +52,17 @@ int rcp_templates(rcp_bed* bed);
 double rcp_mean_contacts(rcp_bed* bed);
 /* 0: cpu, 1: cuda, and why it runs (backend_reason, up to `size` bytes). */
 int rcp_backend(rcp_bed* bed, char* reason, int size);
-/* Body-frame states (3, 4, 3, 3 per stone) and masses (1 per stone) of the stones `indices` (count of them), or of
- * all stones when indices is null. Any output pointer may be null. Returns the number of stones written. */
+/* Body-frame states (3, 4, 3, 3 per stone) and masses (1 per stone) of the stones `indices` (count of them: only
+ * these cross from a GPU), or of all stones when indices is null. Any output pointer may be null. Returns the number
+ * of stones written. */
 int rcp_states(rcp_bed* bed, const int32_t* indices, int count, double* positions, double* orientations,
                double* velocities, double* angular_velocities, double* masses);
 /* Active contacts of the last force evaluation: the count; then rcp_contacts copies them (first, second: stone
  * indices, second the wall triangle when wall[k] = 1; point, normal, force on second (3 each), overlap). */
 int rcp_contact_count(rcp_bed* bed);
+/* As rcp_contact_count, but only the contacts that the stones `indices` (count of them) take part in, selected where
+ * the lists live (a few sensor blocks' contacts read often, without the bed's). */
+int rcp_contact_count_of(rcp_bed* bed, const int32_t* indices, int count);
 int rcp_contacts(rcp_bed* bed, int32_t* first, int32_t* second, int32_t* wall, double* point, double* normal,
                  double* force, double* overlap);
 

@@ -2,8 +2,8 @@
 without it): the walls, materials and time step of the bed under the FEM sleeper, and what each window records (the
 interface force, the sensors' top-face forces and heights). A driver hands Sensors.record an object with
 frames(indices) (body-frame positions and orientations w,x,y,z of those bed bodies), contacts() (preparation's
-contact arrays, bed indices; at least every contact of a sensor), interface_force (the force sent to the FEM side, 3) and surface_force (the stones'
-force on the surface, 3)."""
+contact arrays, bed indices; at least every contact of a sensor), interface_force (the force sent to the FEM side, 3)
+and surface_force (the stones' force on the surface, 3)."""
 import json
 import math
 import os

@@ -156,8 +156,7 @@ int main() {
     int differing = static_cast<int>(selected.size() != expected.size());
     for (const auto& [key, c] : selected) {
       const auto found = expected.find(key);
-      differing += found == expected.end() || maxDifference({c.force.begin(), c.force.end()},
-                                                            {found->second.force.begin(), found->second.force.end()}) > 0;
+      differing += found == expected.end() || c.force != found->second.force;
     }
     std::vector<double> p, q, v, w;
     gpu.stoneStates(chosen, p, q, v, w);

@@ -51,7 +51,8 @@ void BodyFrameStones::bodyState(std::size_t i, std::size_t k, const std::vector<
                                 std::array<double, 3>& angularVelocity) const {
   const Eigen::Vector3d centre = vector(&positions[3 * k]);
   const Eigen::Vector3d omega = vector(&angularVelocities[3 * k]);
-  const Eigen::Quaterniond ori = (quaternion(&orientations[4 * k]) * quaternion(principalToBody_[i].data()).conjugate()).normalized();
+  const Eigen::Quaterniond ori =
+      (quaternion(&orientations[4 * k]) * quaternion(principalToBody_[i].data()).conjugate()).normalized();
   const Eigen::Vector3d origin = centre - ori * vector(centroidInBody_[i].data());
   const Eigen::Vector3d v = vector(&velocities[3 * k]) + omega.cross(origin - centre);
   position = {origin[0], origin[1], origin[2]};

@@ -29,6 +29,9 @@
 
 #include "polyhedra/PolyhedraShapes.hpp"
 #include "polyhedra/PolyhedraSystem.hpp"
+#ifdef RAILCOSIM_BENCH_PROFILER_RANGE
+#include <cuda_profiler_api.h> // run_device.sh: the timed steps alone are profiled (ncu --profile-from-start off)
+#endif
 
 using namespace railcosim::polyhedra;
 
@@ -353,7 +356,13 @@ int main(int argc, char** argv) try {
     const double maxSpeedBefore = maxSpeedOf(system);
     system.step(20); // warm-up: CUDA graphs captured, caches filled
     const auto start = std::chrono::steady_clock::now();
+#ifdef RAILCOSIM_BENCH_PROFILER_RANGE
+    cudaProfilerStart();
+#endif
     system.step(options.steps);
+#ifdef RAILCOSIM_BENCH_PROFILER_RANGE
+    cudaProfilerStop();
+#endif
     const double wall = seconds(start);
     const StepStatistics stats = system.lastStatistics();
     if (options.settled) {

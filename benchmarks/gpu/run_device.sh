@@ -31,7 +31,8 @@ start=$(date +%s)
 for f in yade_engines/polyhedra/PolyhedraSystem.cpp yade_engines/polyhedra/cpu/PolyhedraCpuBackend.cpp yade_engines/polyhedra/PolyhedraShapes.cpp \
          bridge/src/io/Log.cpp bridge/src/io/StateStream.cpp tests/polyhedra/PolyhedraGpuComparison.cpp \
          benchmarks/gpu/PolyhedraBench.cpp; do
-  g++ $common $eigen -fopenmp -I/usr/local/cuda/include -c "$f" -o "$build/$(basename "$f" .cpp).o" &
+  g++ $common $eigen -fopenmp -I/usr/local/cuda/include -DRAILCOSIM_BENCH_PROFILER_RANGE -c "$f" \
+    -o "$build/$(basename "$f" .cpp).o" &
 done
 wait
 grep -A2 -E "narrowPhaseKernel|filterKernel|wallForcesKernel|forcesKernel" "$out/ptxas.txt" | grep -E "stack|registers" || true

@@ -17,6 +17,9 @@
 # checkpoint (railcosim run --resume: the same --set values; --checkpoint-every and --time-limit again, so that a
 # third call can go on). It is OUTDIR/run, or OUTDIR/run.partial-XXXXXXXX when a finished OUTDIR/run was there
 # (that one moves to OUTDIR/run once finished only if OUTDIR/run has gone).
+# A bed carried between calls (a device call brings back at most 8 files, 2 folders deep: the cache's bed is deeper):
+# BED_ARCHIVE=FILE packs the bed cache into FILE after the run (e.g. $OUT/bed.tgz, about 10 MB at 94,000 stones);
+# BED_FROM=FILE unpacks such an archive into the cache before it (FILE carried in an ignored folder, e.g. build/).
 set -euo pipefail
 out=${1:?usage: run_sleeper_device.sh OUTDIR [runner options ...]}
 shift
@@ -41,6 +44,16 @@ export LD_LIBRARY_PATH="$rt/driverlib${LD_LIBRARY_PATH:+:$LD_LIBRARY_PATH}"
 export FF_LOADPATH="$rt/freefem/plugins;./"
 export FF_INCLUDEPATH="$root/freefem_scripts/lib;$rt/freefem/idp;./"
 export RAILCOSIM_ROOT=$root RAILCOSIM_CACHE="${RAILCOSIM_CACHE:-$out/cache}" PYTHONPATH="$root/python"
+if [ -n "${BED_FROM:-}" ]; then
+  mkdir -p "$RAILCOSIM_CACHE"
+  tar -C "$RAILCOSIM_CACHE" -xzf "$BED_FROM"
+  echo "beds from $BED_FROM: $(cd "$RAILCOSIM_CACHE" && find beds -name '*.h5' | tr '\n' ' ')"
+fi
+pack_beds() {
+  if [ -n "${BED_ARCHIVE:-}" ] && [ -d "$RAILCOSIM_CACHE/beds" ]; then
+    tar -C "$RAILCOSIM_CACHE" -czf "$BED_ARCHIVE" --exclude='*.lock' beds && echo "beds packed into $BED_ARCHIVE"
+  fi
+}
 export RAILCOSIM_POLYHEDRA_DRIVER="$rt/librailcosim_polyhedra_driver.so" RAILCOSIM_CHECKPOINT_TOOL="$rt/railcosim_checkpoint"
 {
   nvidia-smi --query-gpu=name,driver_version,memory.total --format=csv,noheader || true
@@ -52,6 +65,7 @@ if [ -n "${CAMPAIGN:-}" ]; then
   RAILCOSIM_CAMPAIGN_DIRECT=1 ${PYTHON:-python3} "$root/tools/campaign.py" "$CAMPAIGN" --jobs "${JOBS:-4}" --out "$out/campaign" "$@"
   code=$?
   echo "campaign exit $code after $(( $(date +%s) - start )) s" | tee -a "$out/device.txt"
+  pack_beds
   exit $code
 fi
 target=(--out "$out/run" --force)
@@ -71,4 +85,5 @@ ${PYTHON:-python3} "$root/tools/run_case.py" "$root/cases/sleeper_on_ballast" "$
 code=$?
 set -e
 echo "runner exit $code after $(( $(date +%s) - start )) s" | tee -a "$out/device.txt"
+pack_beds
 exit $code

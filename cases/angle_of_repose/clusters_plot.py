@@ -1,6 +1,6 @@
 #!/usr/bin/python3
 """results/clusters.png: the clusters' angles of repose (results/clusters.csv, the README's runs of
-campaigns/clusters.toml at 10 kg) against the thesis's (Irazábal 2017 §6.2.2, Table 6.5: T2 and T4).
+campaigns/clusters.toml at 10 kg and of the coarse clusters at 30 kg) against the thesis's (Irazábal 2017 §6.2.2, Table 6.5: T2 and T4).
 
 Usage: /usr/bin/python3 cases/angle_of_repose/clusters_plot.py
 """
@@ -16,14 +16,15 @@ def main():
     import matplotlib.pyplot as plt
     with open(os.path.join(HERE, "results", "clusters.csv")) as f:
         rows = list(csv.DictReader(f))
-    labels = [f"{r['cluster_level']}\n{r['friction_model'].replace('_', '-')} μ" for r in rows]
+    labels = [f"{r['cluster_level']}, {float(r['ballast_mass_kg']):g} kg\n{r['friction_model'].replace('_', '-')} μ"
+              for r in rows]
     x = range(len(rows))
-    fig, ax = plt.subplots(figsize=(6.5, 4.2))
+    fig, ax = plt.subplots(figsize=(8.0, 4.2))
     ax.bar([i - 0.2 for i in x], [float(r["thesis_angle_deg"]) for r in rows], 0.4, color="0.7",
            label="thesis (T2, T4)")
     ax.bar([i + 0.2 for i in x], [float(r["angle_deg"]) for r in rows], 0.4,
            yerr=[float(r["spread_deg"]) for r in rows], color="C0",
-           label=f"this case, {float(rows[0]['ballast_mass_kg']):g} kg, one layer: no pile")
+           label="this case: one layer, no pile, at every amount run")
     ax.set_xticks(list(x), labels, fontsize=9)
     ax.set_ylabel("angle of repose [deg]")
     ax.set_ylim(0, 45)

@@ -15,7 +15,7 @@ import sys
 NOT_RESULTS = {"wall_time_s", "total_wall_time_s", "time_limit_s", "solvers", "checkpoints", "resumed_from", "error",
                "bridge_time_s", "dem_bridge_time_s", "fem_bridge_time_s", "force_mapping_time_s",
                "bridge_time_per_exchange_s", "checkpoint_time_s", "restart_checkpoint_time_s", "mapping_time_s",
-               "wait_time_s", "polyhedra_time_s",
+               "wait_time_s", "polyhedra_time_s", "script_time_s",
                "assemblySeconds", "factorisationSeconds", "meanStepSeconds", "bridgeSeconds", "waitSeconds"}
 
 

@@ -1,6 +1,7 @@
 #!/usr/bin/python3
 """results/clusters.png: the clusters' angles of repose (results/clusters.csv, the README's runs of
-campaigns/clusters.toml at 10 kg and of the coarse clusters at 30 kg) against the thesis's (Irazábal 2017 §6.2.2, Table 6.5: T2 and T4).
+campaigns/clusters.toml at 10 kg and of the coarse clusters at 30 kg) against the thesis's (Irazábal 2017 §6.2.2,
+Table 6.5: T2 and T4).
 
 Usage: /usr/bin/python3 cases/angle_of_repose/clusters_plot.py
 """

@@ -49,7 +49,8 @@ class TrackStiffness(Case):
             # subgrade as FreeFEM layers"); the implicit scheme's relaxation (Aitken) removes that gain.
             problems.append(f"subgrade = layers needs scheme = implicit (got {p['scheme']}): soft layers under the "
                             "ballast's contacts make an explicit exchange diverge within about 200 windows at any "
-                            "window length; add --set scheme=implicit (or, to study it, --set force_explicit_layers=true)")
+                            "window length; add --set scheme=implicit (or, to study it, "
+                            "--set force_explicit_layers=true)")
         if p["load_start_s"] < 0.01:
             problems.append("load_start_s: the deflection is measured from the state under the weight alone, "
                             "averaged over the 0.01 s before the ramp")

@@ -34,7 +34,8 @@ public:
   }
   /// The same with stone `i`'s state at entry `k` of the arrays (PolyhedraSystem::stoneStates of a few stones).
   void bodyState(std::size_t i, std::size_t k, const std::vector<double>& positions,
-                 const std::vector<double>& orientations, const std::vector<double>& velocities, const std::vector<double>& angularVelocities,
+                 const std::vector<double>& orientations, const std::vector<double>& velocities,
+                 const std::vector<double>& angularVelocities,
                  std::array<double, 3>& position, std::array<double, 4>& orientation, std::array<double, 3>& velocity,
                  std::array<double, 3>& angularVelocity) const;
   std::size_t size() const { return principalToBody_.size(); }

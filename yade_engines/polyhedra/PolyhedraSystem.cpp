@@ -269,6 +269,13 @@ struct PolyhedraSystem::Implementation {
   std::size_t stored(std::size_t user) const {
     return storedOf.empty() ? user : static_cast<std::size_t>(storedOf[user]);
   }
+  // stored() of an index a caller gave (addStone order), refused with `where` when there is no such stone.
+  std::size_t storedChecked(const char* where, std::int32_t user) const {
+    if (user < 0 || static_cast<std::size_t>(user) >= data.rotation.size())
+      fail(where, "stone " + std::to_string(user) + " out of range (" + std::to_string(data.rotation.size()) +
+                      " stones)");
+    return stored(static_cast<std::size_t>(user));
+  }
   std::size_t user(std::size_t storedIndex) const {
     return userOf.empty() ? storedIndex : static_cast<std::size_t>(userOf[storedIndex]);
   }
@@ -300,10 +307,10 @@ struct PolyhedraSystem::Implementation {
       hostCurrent = true;
     }
   }
-  // Only `parts` of the state (downloadStones, downloadTriangles) current on the host: the accessors a coupling
-  // window calls every window. A later sync() still brings back everything.
   // The active contacts in user indices; `selected` as PolyhedraBackend::activeContacts takes it (empty: all).
   std::vector<ContactRecord> contacts(const std::vector<std::uint8_t>& selected);
+  // Only `parts` of the state (downloadStones, downloadTriangles) current on the host: the accessors a coupling
+  // window calls every window. A later sync() still brings back everything.
   void sync(int parts) {
     if (hostCurrent || (partsCurrent & parts) == parts) return;
     backend->downloadParts(data, parts & ~partsCurrent);
@@ -814,12 +821,8 @@ void PolyhedraSystem::stoneStates(const std::vector<std::int32_t>& stones, std::
                                   std::vector<double>& angularVelocities) const {
   Implementation& m = *implementation_;
   std::vector<std::int32_t> storedStones(stones.size());
-  for (std::size_t k = 0; k < stones.size(); ++k) {
-    if (stones[k] < 0 || static_cast<std::size_t>(stones[k]) >= m.data.rotation.size())
-      fail("stoneStates", "stone " + std::to_string(stones[k]) + " out of range (" +
-                              std::to_string(m.data.rotation.size()) + " stones)");
-    storedStones[k] = static_cast<std::int32_t>(m.stored(static_cast<std::size_t>(stones[k])));
-  }
+  for (std::size_t k = 0; k < stones.size(); ++k)
+    storedStones[k] = static_cast<std::int32_t>(m.storedChecked("stoneStates", stones[k]));
   // Written into the host arrays at their places only: they are not marked current, a later sync() still
   // brings everything back.
   if (!m.hostCurrent && (m.partsCurrent & downloadStones) == 0) m.backend->downloadStonesAt(m.data, storedStones);
@@ -915,11 +918,7 @@ std::vector<ContactRecord> PolyhedraSystem::contacts(const std::vector<std::int3
   Implementation& m = *implementation_;
   if (stones.empty()) return {}; // (an empty selection would read as "all" below)
   std::vector<std::uint8_t> selected(m.data.rotation.size(), 0);
-  for (std::int32_t i : stones) {
-    if (i < 0 || static_cast<std::size_t>(i) >= selected.size())
-      fail("contacts", "stone " + std::to_string(i) + " out of range (" + std::to_string(selected.size()) + " stones)");
-    selected[m.stored(static_cast<std::size_t>(i))] = 1;
-  }
+  for (std::int32_t i : stones) selected[m.storedChecked("contacts", i)] = 1;
   return m.contacts(selected);
 }
 

@@ -481,11 +481,7 @@ int rcp_states(rcp_bed* bed, const int32_t* indices, int count, double* position
     if (indices && count < 0) throw std::invalid_argument("count " + std::to_string(count) + " must be >= 0");
     std::vector<double> p, q, v, w;
     if (indices) {
-      const std::vector<std::int32_t> chosen(indices, indices + count);
-      for (std::int32_t i : chosen)
-        if (i < 0 || static_cast<std::size_t>(i) >= bed->frames.size())
-          throw std::invalid_argument("stone " + std::to_string(i) + " out of range");
-      bed->system->stoneStates(chosen, p, q, v, w); // k-th entry: stone indices[k]
+      bed->system->stoneStates({indices, indices + count}, p, q, v, w); // k-th entry: stone indices[k]; checks them
     } else {
       p = bed->system->positions(), q = bed->system->orientations();
       v = bed->system->velocities(), w = bed->system->angularVelocities();

@@ -7,7 +7,8 @@
 #   EXTRA_NVCC_FLAGS (e.g. -maxrregcount=128), BENCH_STEPS (200), BENCH_PREPARE (3000), SKIP_COMPARISON=1,
 #   BUILD_DIR (keeps the executables polyhedra_bench and polyhedra_gpu_comparison; default a temporary folder),
 #   BUILD_ONLY=1 (stop after the build), EIGEN_INCLUDE (default /usr/include/eigen3),
-#   BENCH_BED (packing, the default, or settled: see benchmarks/gpu/PolyhedraBench.cpp).
+#   BENCH_BED (packing, the default, or settled: see benchmarks/gpu/PolyhedraBench.cpp),
+#   BENCH_ARGS (more options of polyhedra_bench, e.g. "--tile 2 --save-bed DIR" with BENCH_BED=settled).
 set -euo pipefail
 out=${1:-polyhedra-device-out}
 shift || true
@@ -50,4 +51,4 @@ echo "== benchmark"
 args=()
 for n in "${sizes[@]}"; do args+=(--n "$n"); done
 "$build/polyhedra_bench" "${args[@]}" --steps "${BENCH_STEPS:-200}" --prepare "${BENCH_PREPARE:-3000}" --backend cuda \
-  --bed "${BENCH_BED:-packing}" --json "$out/gpu_polyhedra_gpu.json" 2>&1 | tee "$out/bench.txt"
+  --bed "${BENCH_BED:-packing}" ${BENCH_ARGS:-} --json "$out/gpu_polyhedra_gpu.json" 2>&1 | tee "$out/bench.txt"

@@ -560,9 +560,21 @@ std::string timeBed(const Options& options, Bed& bed, const std::string& label) 
 
 } // namespace
 
+// The records as a JSON list.
+std::string jsonList(const std::vector<std::string>& records) {
+  std::string list = "[\n";
+  for (std::size_t k = 0; k < records.size(); ++k) list += "  " + records[k] + (k + 1 < records.size() ? ",\n" : "\n");
+  return list + "]\n";
+}
+
 int main(int argc, char** argv) try {
   const Options options = parse(argc, argv);
   std::vector<std::string> records;
+  // Each record is written as soon as it exists: a run stopped by a time limit keeps the beds already timed.
+  auto keep = [&](std::string record) {
+    records.push_back(std::move(record));
+    if (!options.json.empty()) std::ofstream(options.json) << jsonList(records);
+  };
   std::printf("%-30s %10s %6s %8s %10s %14s %14s %10s %10s\n", "device", "stones", "steps", "wall_s", "ms/step",
               "p-steps/s", "contacts/s", "cont/stone", "bw_frac");
   for (const long requested : options.sizes) {
@@ -570,19 +582,14 @@ int main(int argc, char** argv) try {
               : options.settled        ? settledBed(options, requested)
                                        : packingBed(options, requested);
     if (!options.saveBed.empty()) saveBed(options.saveBed, requested, bed);
-    records.push_back(timeBed(options, bed, std::to_string(requested)));
+    keep(timeBed(options, bed, std::to_string(requested)));
     if (options.tile > 1) {
       Bed tiled = tiledBed(options, bed);
       bed.system.reset(); // the copies' device memory beside the base bed's, not three beds at once
-      records.push_back(
-          timeBed(options, tiled, std::to_string(requested) + "x" + std::to_string(options.tile * options.tile)));
+      keep(timeBed(options, tiled, std::to_string(requested) + "x" + std::to_string(options.tile * options.tile)));
     }
   }
-  std::string list = "[\n";
-  for (std::size_t k = 0; k < records.size(); ++k) list += "  " + records[k] + (k + 1 < records.size() ? ",\n" : "\n");
-  list += "]\n";
-  if (!options.json.empty()) std::ofstream(options.json) << list;
-  std::printf("%s", list.c_str());
+  std::printf("%s", jsonList(records).c_str());
   return 0;
 } catch (const std::exception& e) {
   std::fprintf(stderr, "polyhedra_bench: %s\n", e.what());

@@ -360,15 +360,20 @@ public:
     wallSurvivors_.resize(static_cast<std::size_t>(d.stoneCount) * (d.maxWalls > 0 ? d.maxWalls : 1));
     wallGeometry_.resize(static_cast<std::size_t>(d.stoneCount) * (d.maxWalls > 0 ? d.maxWalls : 1));
     survivorCount_.resize(3); // pairs, walls, deferred pairs
-    int device = 0, multiprocessors = 0, perMultiprocessor = 0;
+    int device = 0, multiprocessors = 0;
     check(cudaGetDevice(&device), "cudaGetDevice");
     check(cudaDeviceGetAttribute(&multiprocessors, cudaDevAttrMultiProcessorCount, device), "device attribute");
-    check(cudaOccupancyMaxActiveBlocksPerMultiprocessor(&perMultiprocessor, pairNarrowPhaseKernel, blockSize, 0),
-          "occupancy query");
-    contactBlocks_ = multiprocessors * (perMultiprocessor > 0 ? perMultiprocessor : 1);
-    check(cudaOccupancyMaxActiveBlocksPerMultiprocessor(&perMultiprocessor, pairFilterKernel, blockSize, 0),
-          "occupancy query");
-    filterBlocks_ = multiprocessors * (perMultiprocessor > 0 ? perMultiprocessor : 1);
+    // Grid-stride kernels get the blocks that can be resident at once, each by its own register count (the first
+    // pass and the long GJK runs may be built with different launch bounds).
+    auto residentBlocks = [&](const void* kernel) {
+      int perMultiprocessor = 0;
+      check(cudaOccupancyMaxActiveBlocksPerMultiprocessor(&perMultiprocessor, kernel, blockSize, 0), "occupancy query");
+      return multiprocessors * (perMultiprocessor > 0 ? perMultiprocessor : 1);
+    };
+    contactBlocks_ = residentBlocks(reinterpret_cast<const void*>(pairNarrowPhaseKernel));
+    resumeBlocks_ = residentBlocks(reinterpret_cast<const void*>(pairResumeKernel));
+    wallNarrowBlocks_ = residentBlocks(reinterpret_cast<const void*>(wallNarrowPhaseKernel));
+    filterBlocks_ = residentBlocks(reinterpret_cast<const void*>(pairFilterKernel));
     std::size_t bytes = 0;
     check(cub::DeviceRadixSort::SortPairs(nullptr, bytes, rawKey_.get(), cellKey_.get(), rawStone_.get(),
                                           sortedStone_.get(), d.stoneCount, 0, sortBits(d.tableSize), stream_),
@@ -659,7 +664,7 @@ private:
       pairNarrowPhaseKernel<<<contactBlocks_, blockSize, 0, stream_>>>(v, survivors_.get(), survivorCount_.get(),
                                                                        deferred_.get(), survivorCount_.get() + 2);
       check(cudaGetLastError(), "pair contact kernel");
-      pairResumeKernel<<<contactBlocks_, blockSize, 0, stream_>>>(v, deferred_.get(), survivorCount_.get() + 2, nullptr,
+      pairResumeKernel<<<resumeBlocks_, blockSize, 0, stream_>>>(v, deferred_.get(), survivorCount_.get() + 2, nullptr,
                                                                   nullptr);
       check(cudaGetLastError(), "pair resume kernel");
     }
@@ -668,7 +673,7 @@ private:
       wallFilterKernel<<<filterBlocks_, blockSize, 0, stream_>>>(v, wallCandidates_.get(), candidateCount_.get() + 1,
                                                                  wallSurvivors_.get(), survivorCount_.get() + 1);
       check(cudaGetLastError(), "wall filter kernel");
-      wallNarrowPhaseKernel<<<contactBlocks_, blockSize, 0, stream_>>>(v, wallSurvivors_.get(),
+      wallNarrowPhaseKernel<<<wallNarrowBlocks_, blockSize, 0, stream_>>>(v, wallSurvivors_.get(),
                                                                        survivorCount_.get() + 1, nullptr, nullptr);
       check(cudaGetLastError(), "wall narrow-phase kernel");
       wallForcesKernel<<<filterBlocks_, blockSize, 0, stream_>>>(v, wallStones_.get(), candidateCount_.get() + 2);
@@ -757,7 +762,9 @@ private:
     DeviceArray<kernels::NormalHistory> pairNormal, wallNormal;
     DeviceArray<ContactOutput> pairOutput, wallOutput;
   } saved_;
-  int contactBlocks_ = 1; // resident blocks of the narrow-phase kernels (grid-stride over the survivors)
+  int contactBlocks_ = 1; // resident blocks of the pair narrow phase's first pass (grid-stride over the survivors)
+  int resumeBlocks_ = 1;     // ... of the resumed (deferred) pair GJK runs
+  int wallNarrowBlocks_ = 1; // ... of the wall narrow phase
   int filterBlocks_ = 1;  // resident blocks of the filter kernels (grid-stride over the candidate lists)
 };
 

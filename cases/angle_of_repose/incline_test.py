@@ -1,0 +1,106 @@
+# Does a single library stone stay where it lies? Each of the 8 library stones, in 3 random orientations, 30 mm, is
+# dropped 1 mm onto a floor (E 2.4 GPa, μ 0.6, the case's ballast) and left for 0.4 s; then gravity is tilted by 5°,
+# 10° and 20° (an incline) for 0.5 s. Printed per stone: its speed after the 0.4 s (at rest or still moving) and how
+# far it went on each incline. A stone with a face or three points on the floor stays below the friction angle
+# (atan 0.6 = 31°) unless it tips; a body resting on one round point rocks and rolls (README, "Why the clusters do not
+# pile").
+# Two models of the same stones:
+#   clusters (YADE, the case's contact law with e = 0 and the Zhao–van Wachem integrator, 2 µs):
+#       ./railcosim yade cases/angle_of_repose/incline_test.py coarse|fine
+#   dilated polyhedra (the polyhedra library through its driver, without YADE; r_d a fraction of the size):
+#       RAILCOSIM_ROOT=$PWD /usr/bin/python3 cases/angle_of_repose/incline_test.py polyhedra [0.03]
+import math
+import os
+import sys
+
+import numpy as np
+
+ROOT = os.environ.get("RAILCOSIM_ROOT", os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__)))))
+sys.path.insert(0, os.path.join(ROOT, "yade_engines", "clusters"))
+import ballast_clusters  # noqa: E402
+
+SIZE, DENSITY, YOUNG, FRICTION = 0.03, 2700.0, 2.4e9, 0.6
+SETTLE, TILTED, ANGLES = 0.4, 0.5, (5, 10, 20)
+library = ballast_clusters.loadShapeLibrary()
+model = sys.argv[1] if len(sys.argv) > 1 else "coarse"
+
+
+def tilted_gravity(degrees):
+    t = math.radians(degrees)
+    return (9.81 * math.sin(t), 0.0, -9.81 * math.cos(t))
+
+
+def orientation(k, trial):
+    return ballast_clusters.randomRotation(np.random.default_rng(100 * k + trial))
+
+
+def cluster_trial(k, trial):
+    """Speed after settling and displacement [m] on each incline of library stone k as a cluster (YADE)."""
+    import pack_ballast
+    cluster = library["shapes"][k]["clusters"][model]
+    stone = {"rotation": orientation(k, trial), "spheres": cluster["spheres"] * SIZE,
+             "mass": DENSITY * cluster["volume"] * SIZE ** 3,
+             "principalInertia": DENSITY * cluster["principalInertia"] * SIZE ** 5,
+             "reach": cluster["enclosingRadius"] * SIZE}
+    moved = []
+    for degrees in ANGLES:  # the same settling each time, then the incline
+        O.reset()
+        mat = O.materials.append(BallastMat(young=YOUNG, poisson=0.2, density=DENSITY, restitution=0.0,
+                                            frictionAngle=math.atan(FRICTION)))
+        O.bodies.append(utils.wall(position=0.0, axis=2, sense=1, material=mat))
+        clump = pack_ballast.addClusterStone(stone, (0, 0, stone["reach"] + 1e-3), O.materials[mat])
+        integrator = QuaternionIntegrator(scheme="zhaoVanWachem", damping=0.0, gravity=(0, 0, -9.81))
+        O.engines = [ForceResetter(), InsertionSortCollider([Bo1_Sphere_Aabb(), Bo1_Wall_Aabb()]),
+                     InteractionLoop([Ig2_Sphere_Sphere_ScGeom(), Ig2_Wall_Sphere_ScGeom()],
+                                     [Ip2_BallastMat_BallastMat_BallastPhys()], [Law2_ScGeom_BallastPhys_Ballast()]),
+                     integrator]
+        O.dt = 2e-6
+        state = O.bodies[clump].state
+        O.run(int(SETTLE / O.dt), True)
+        speed, start = state.vel.norm(), Vector3(state.pos)
+        integrator.gravity = tilted_gravity(degrees)
+        O.run(int(TILTED / O.dt), True)
+        moved.append((state.pos - start).norm())
+    return speed, moved
+
+
+def polyhedra_trial(k, trial, relative_dilation):
+    """The same for library stone k as a dilated polyhedron (its hull shrunk by r_d, so that the size stays)."""
+    sys.path.insert(0, os.path.join(ROOT, "python"))
+    from railcosim.polyhedra_driver import PolyhedraBed
+    material = (YOUNG, 0.2, 0.2, FRICTION)  # e = 0.2: the driver's law needs e > 0
+    floor = np.array([[[-5, -5, 0], [5, -5, 0], [5, 5, 0]], [[-5, -5, 0], [5, 5, 0], [-5, 5, 0]]], float)
+    dilation = relative_dilation * SIZE
+    vertices = (np.asarray(library["shapes"][k]["vertices"]) * SIZE * (1 - relative_dilation)) @ orientation(k, trial).T
+
+    def run(gravity, pose, duration):
+        # a 2-mm skin: a stone rolling at 1 m/s moves less than its half between two list rebuilds
+        bed = PolyhedraBed(time_step=1e-6, stone_material=material, gravity=gravity, neighbour_skin=0.002, backend="cpu")
+        bed.add_stone(vertices, dilation, DENSITY, *pose)
+        bed.set_walls(floor, [0, 0], [material])
+        bed.initialize()
+        bed.dt = 0.2 * bed.critical_time_step(impact_velocity=0.5)
+        bed.step(int(duration / bed.dt))
+        p, q, v, _, _ = bed.states()
+        return (p[0], q[0]), np.linalg.norm(v[0])
+
+    rest, speed = run((0, 0, -9.81), ((0, 0, dilation + 1e-3 - vertices[:, 2].min()), (1, 0, 0, 0)), SETTLE)
+    return speed, [np.linalg.norm(run(tilted_gravity(d), rest, TILTED)[0][0] - rest[0]) for d in ANGLES]
+
+
+label = (f"{model} clusters" if model != "polyhedra"
+         else f"polyhedra, r_d = {100 * (float(sys.argv[2]) if len(sys.argv) > 2 else 0.03):g} % of the size")
+print(f"{label}: speed after {SETTLE} s on the floor; displacement in {TILTED} s on inclines of "
+      + ", ".join(f"{a}°" for a in ANGLES))
+moving, rolled = 0, [0] * len(ANGLES)
+for k in range(len(library["shapes"])):
+    for trial in range(3):
+        speed, moved = (polyhedra_trial(k, trial, float(sys.argv[2]) if len(sys.argv) > 2 else 0.03)
+                        if model == "polyhedra" else cluster_trial(k, trial))
+        moving += speed > 0.01
+        rolled = [r + (m > 0.02) for r, m in zip(rolled, moved)]
+        print(f"  stone {k} ({library['shapes'][k]['name']}), orientation {trial}: {speed:.1e} m/s; "
+              + ", ".join(f"{1e3 * m:.1f} mm" for m in moved), flush=True)
+count = 3 * len(library["shapes"])
+print(f"{label}: {moving} of {count} still faster than 0.01 m/s after {SETTLE} s; moved more than 20 mm: "
+      + ", ".join(f"{r} of {count} at {a}°" for r, a in zip(rolled, ANGLES)), flush=True)

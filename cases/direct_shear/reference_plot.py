@@ -36,8 +36,8 @@ def main():
         print(f"{n:.0f} kPa: falls {', '.join(f'{x:.1f}' for x in falls[n])} %; mean {mean[n]:.1f} ± {std[n]:.1f} % "
               f"(standard error {std[n] / len(falls[n]) ** 0.5:.1f} %, {len(falls[n])} packings)")
     fig, ax = plt.subplots(figsize=(6, 4.2))
-    ax.plot(sigma, at_20, "o-", label="this case, γ = −0.15, at 20 mm")
-    ax.plot(sigma, at_10, "s:", color="C0", alpha=0.6, label="this case, γ = −0.15, at 10 mm")
+    ax.plot(sigma, at_20, "o-", label="this case, γ = −0.15, at 20 mm (seed 1)")
+    ax.plot(sigma, at_10, "s:", color="C0", alpha=0.6, label="this case, γ = −0.15, at 10 mm (seed 1)")
     ax.errorbar(sorted(falls), [mean[n] for n in sorted(falls)], yerr=[std[n] for n in sorted(falls)], fmt="D-",
                 color="C1", capsize=4, label=f"this case, γ = −0.05, {len(packings) // len(falls)} packings, mean ± std")
     ax.plot(list(THESIS_REDUCTION_GAMMA_005_PCT), list(THESIS_REDUCTION_GAMMA_005_PCT.values()), "k^--",

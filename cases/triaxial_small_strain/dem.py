@@ -40,7 +40,8 @@ def engines(servoed=True):
     O.engines = [
         ForceResetter(),
         InsertionSortCollider([Bo1_Sphere_Aabb()], verletDist=-0.1, allowBiggerThanPeriod=False),
-        InteractionLoop([Ig2_Sphere_Sphere_ScGeom()], [Ip2_BallastMat_BallastMat_BallastPhys()],
+        InteractionLoop([Ig2_Sphere_Sphere_ScGeom()],
+                        [Ip2_BallastMat_BallastMat_BallastPhys(fixedEffectiveRadius=p["contact_radius"])],
                         [Law2_ScGeom_BallastPhys_Ballast()]),
     ] + ([PyRunner(iterPeriod=p["servo_steps"], command="servo_step()")] if servoed else []) + [
         NewtonIntegrator(damping=p["local_damping"], gravity=(0, 0, 0)),

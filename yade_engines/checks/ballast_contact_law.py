@@ -107,7 +107,29 @@ check(O.materials["ballast"].restitution == 0.3 and O.materials["ballast"].maxCo
 check(abs(O.interactions[a, b].phys.rollingArm - before) < 1e-15 and abs(before - 0.2 * 0.005) < 1e-12,
       f"BallastPhys.rollingArm = η_r R1R2/(R1+R2) = 1e-3 m survives save/load ({before})")
 
-# 4. Invalid input is refused when the material is made, with the attribute named.
+# 4. Ip2.fixedEffectiveRadius: every contact takes the given R*. Two fixed 10 mm spheres (R1R2/(R1+R2) = 5 mm) pressed
+#    1e-5 m together, smooth Hertz: F = 4/3 E* √R* δ^{3/2} with R* = 2.36 mm, the same to roundoff.
+for fixed, r_star in ((0.0, 5e-3), (2.36e-3, 2.36e-3)):
+    O.reset()
+    smooth = O.materials.append(BallastMat(young=60e9, poisson=0.25, density=2650, frictionAngle=0.5,
+                                           restitution=1.0))
+    a = O.bodies.append(utils.sphere((0, 0, 0), 0.01, material=smooth, fixed=True))
+    b = O.bodies.append(utils.sphere((0.02 - 1e-5, 0, 0), 0.01, material=smooth, fixed=True))
+    O.engines = [ForceResetter(), InsertionSortCollider([Bo1_Sphere_Aabb()]),
+                 InteractionLoop([Ig2_Sphere_Sphere_ScGeom()],
+                                 [Ip2_BallastMat_BallastMat_BallastPhys(fixedEffectiveRadius=fixed)],
+                                 [Law2_ScGeom_BallastPhys_Ballast()]),
+                 NewtonIntegrator(damping=0, gravity=(0, 0, 0))]
+    O.dt = 1e-7
+    O.step()
+    phys = O.interactions[a, b].phys
+    overlap = O.interactions[a, b].geom.penetrationDepth
+    hertz = 4.0 / 3.0 * 60e9 / (2 * (1 - 0.25 ** 2)) * math.sqrt(r_star) * overlap ** 1.5
+    check(abs(phys.effectiveRadius / r_star - 1) < 1e-12 and abs(phys.normalForce.norm() / hertz - 1) < 1e-9,
+          f"fixedEffectiveRadius {fixed}: R* {phys.effectiveRadius:.4e} m, F {phys.normalForce.norm():.2f} N = "
+          f"Hertz {hertz:.2f} N")
+
+# 5. Invalid input is refused when the material is made, with the attribute named.
 try:
     BallastMat(restitution=1.5)
     check(False, "restitution 1.5 must be refused")

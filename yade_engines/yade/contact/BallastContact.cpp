@@ -132,8 +132,10 @@ void Ip2_BallastMat_BallastMat_BallastPhys::go(const shared_ptr<Material>& mater
   kernels::ContactLaw law = kernels::mixContactLaw(contactMaterialOf(*material1, "Ip2 body 1"),
                                                    contactMaterialOf(*material2, "Ip2 body 2"), options);
   // Walls: infinite radius and mass.
-  kernels::setContactGeometry(law, contactRadius(body1), contactRadius(body2), contactMass(body1, scene),
-                              contactMass(body2, scene));
+  const double radius = fixedEffectiveRadius > 0 ? double(fixedEffectiveRadius)
+                                                 : kernels::effectiveRadius(contactRadius(body1), contactRadius(body2));
+  const double mass = kernels::effectiveMass(contactMass(body1, scene), contactMass(body2, scene));
+  kernels::setContactGeometry(law, radius, mass);
   auto phys = shared_ptr<BallastPhys>(new BallastPhys());
   phys->setContactLaw(law);
   interaction->phys = phys;

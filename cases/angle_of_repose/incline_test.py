@@ -75,7 +75,8 @@ def polyhedra_trial(k, trial, relative_dilation):
 
     def run(gravity, pose, duration):
         # a 2-mm skin: a stone rolling at 1 m/s moves less than its half between two list rebuilds
-        bed = PolyhedraBed(time_step=1e-6, stone_material=material, gravity=gravity, neighbour_skin=0.002, backend="cpu")
+        bed = PolyhedraBed(time_step=1e-6, stone_material=material, gravity=gravity, neighbour_skin=0.002,
+                           backend="cpu")
         bed.add_stone(vertices, dilation, DENSITY, *pose)
         bed.set_walls(floor, [0, 0], [material])
         bed.initialize()

@@ -38,14 +38,16 @@ def main():
     fig, ax = plt.subplots(figsize=(6, 4.2))
     ax.plot(sigma, at_20, "o-", label="this case, γ = −0.15, at 20 mm (seed 1)")
     ax.plot(sigma, at_10, "s:", color="C0", alpha=0.6, label="this case, γ = −0.15, at 10 mm (seed 1)")
+    count = len(packings) // len(falls)
     ax.errorbar(sorted(falls), [mean[n] for n in sorted(falls)], yerr=[std[n] for n in sorted(falls)], fmt="D-",
-                color="C1", capsize=4, label=f"this case, γ = −0.05, {len(packings) // len(falls)} packings, mean ± std")
+                color="C1", capsize=4, label=f"this case, γ = −0.05, {count} packings, mean ± std")
     ax.plot(list(THESIS_REDUCTION_GAMMA_005_PCT), list(THESIS_REDUCTION_GAMMA_005_PCT.values()), "k^--",
             label="thesis, γ = −0.05, at 20 mm (§6.3.4)")
     ax.set_xlabel("normal stress σ_n [kPa]")
     ax.set_ylabel("fall of τ from constant to stress-dependent μ [%]")
     ax.set_xticks(sigma)
-    ax.set_ylim(min(-20.0, min(mean[n] - std[n] for n in falls) - 5), max(45.0, max(mean[n] + std[n] for n in falls) + 5))
+    low = min(mean[n] - std[n] for n in falls) - 5
+    ax.set_ylim(min(-20.0, low), max(45.0, max(mean[n] + std[n] for n in falls) + 5))
     ax.axhline(0, color="0.5", lw=0.8)
     ax.grid(alpha=0.3)
     ax.legend(fontsize=8)

@@ -131,11 +131,19 @@ def engines(damping):
 fill_wall_time = 0.0
 with bedcache.exclusive(cache) as found:
     if found:
-        O.load(cache)
-        with open(cache + ".json") as f:
-            ids = json.load(f)
-        print(f"packed sample from {cache}", flush=True)
-    else:
+        # A scene saved by another build of the plugins may not load (a class that gained an attribute): the sample
+        # is then prepared again and the cache replaced, rather than the run failing on a stale file.
+        try:
+            O.load(cache)
+            with open(cache + ".json") as f:
+                ids = json.load(f)
+            print(f"packed sample from {cache}", flush=True)
+        except (RuntimeError, OSError, ValueError) as error:
+            print(f"cached sample {cache} unreadable by this build ({error}); preparing it again", flush=True)
+            O.reset()  # a failed load leaves the scene half replaced
+            fill_ballast, fill_wall, test_ballast, test_wall = materials()
+            found = False
+    if not found:
         centres, column_top = place(rng)
         lower, upper = build_box(column_top + 0.05)
         clumps = [pack_ballast.addClusterStone(s, c, O.materials[fill_ballast]) for s, c in zip(stones, centres)]

@@ -9,6 +9,9 @@
 #       ./railcosim yade cases/angle_of_repose/incline_test.py coarse|fine
 #   dilated polyhedra (the polyhedra library through its driver, without YADE; r_d a fraction of the size):
 #       RAILCOSIM_ROOT=$PWD /usr/bin/python3 cases/angle_of_repose/incline_test.py polyhedra [0.03]
+# and, without any dynamics, the static oracle of the stones' hulls: for each face the centroid stands over, the
+# smallest tilt that carries the centroid's vertical over an edge (atan(distance to the nearest edge / height)):
+#       RAILCOSIM_ROOT=$PWD /usr/bin/python3 cases/angle_of_repose/incline_test.py tipping
 import math
 import os
 import sys
@@ -88,6 +91,44 @@ def polyhedra_trial(k, trial, relative_dilation):
     rest, speed = run((0, 0, -9.81), ((0, 0, dilation + 1e-3 - vertices[:, 2].min()), (1, 0, 0, 0)), SETTLE)
     return speed, [np.linalg.norm(run(tilted_gravity(d), rest, TILTED)[0][0] - rest[0]) for d in ANGLES]
 
+
+def tipping_angles(vertices, triangles):
+    """Smallest tipping angles [deg] of the faces a convex hull can rest on (its solid centroid projects into them)."""
+    v, t = np.asarray(vertices, float), np.asarray(triangles, int)
+    signed = np.einsum("ij,ij->i", v[t[:, 0]], np.cross(v[t[:, 1]], v[t[:, 2]]))  # 6 × tetrahedron volumes
+    centroid = (signed[:, None] * (v[t[:, 0]] + v[t[:, 1]] + v[t[:, 2]]) / 4).sum(axis=0) / signed.sum()
+    faces = {}
+    for tri in t:  # coplanar triangles make one face
+        normal = np.cross(v[tri[1]] - v[tri[0]], v[tri[2]] - v[tri[0]])
+        normal /= np.linalg.norm(normal)
+        normal = normal if np.dot(normal, v[tri[0]] - centroid) > 0 else -normal
+        faces.setdefault(tuple(np.round(normal, 6)), set()).update(tri.tolist())
+    angles = []
+    for normal, corners in faces.items():
+        n = np.array(normal)
+        points = v[sorted(corners)] - centroid
+        height = np.dot(points[0], n)
+        u = np.cross(n, [1.0, 0.0, 0.0] if abs(n[0]) < 0.9 else [0.0, 1.0, 0.0])
+        u /= np.linalg.norm(u)
+        w = np.cross(n, u)
+        polygon = np.stack([points @ u, points @ w], axis=1)  # the centroid projects to the origin
+        middle = polygon.mean(axis=0)
+        polygon = polygon[np.argsort(np.arctan2(*(polygon - middle).T[::-1]))]
+        edges = np.roll(polygon, -1, axis=0) - polygon
+        inward = np.stack([-edges[:, 1], edges[:, 0]], axis=1) / np.linalg.norm(edges, axis=1)[:, None]
+        inward *= np.sign(np.einsum("ij,ij->i", middle - polygon, inward))[:, None]
+        distance = np.einsum("ij,ij->i", -polygon, inward)  # > 0 inside
+        if distance.min() > 0:
+            angles.append(math.degrees(math.atan(distance.min() / height)))
+    return sorted(angles)
+
+
+if model == "tipping":
+    for k, shape in enumerate(library["shapes"]):
+        angles = tipping_angles(shape["vertices"], shape["triangles"])
+        print(f"stone {k} ({shape['name']}): {len(angles)} faces to rest on; smallest tipping angles "
+              + ", ".join(f"{a:.0f}°" for a in angles[:6]), flush=True)
+    sys.exit(0)
 
 label = (f"{model} clusters" if model != "polyhedra"
          else f"polyhedra, r_d = {100 * (float(sys.argv[2]) if len(sys.argv) > 2 else 0.03):g} % of the size")

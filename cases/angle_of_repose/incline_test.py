@@ -26,6 +26,16 @@ SIZE, DENSITY, YOUNG, FRICTION = 0.03, 2700.0, 2.4e9, 0.6
 SETTLE, TILTED, ANGLES = 0.4, 0.5, (5, 10, 20)
 library = ballast_clusters.loadShapeLibrary()
 model = sys.argv[1] if len(sys.argv) > 1 else "coarse"
+if model not in ("coarse", "fine", "polyhedra", "tipping"):
+    sys.exit(f"incline_test.py: the model is coarse, fine, polyhedra or tipping, not {model!r}")
+relative_dilation = 0.03
+if model == "polyhedra" and len(sys.argv) > 2:
+    try:
+        relative_dilation = float(sys.argv[2])
+    except ValueError:
+        relative_dilation = float("nan")
+    if not 0 < relative_dilation < 0.5:
+        sys.exit(f"incline_test.py: r_d is a fraction of the size, 0 < r_d < 0.5, not {sys.argv[2]!r}")
 
 
 def tilted_gravity(degrees):
@@ -131,14 +141,13 @@ if model == "tipping":
     sys.exit(0)
 
 label = (f"{model} clusters" if model != "polyhedra"
-         else f"polyhedra, r_d = {100 * (float(sys.argv[2]) if len(sys.argv) > 2 else 0.03):g} % of the size")
+         else f"polyhedra, r_d = {100 * relative_dilation:g} % of the size")
 print(f"{label}: speed after {SETTLE} s on the floor; displacement in {TILTED} s on inclines of "
       + ", ".join(f"{a}°" for a in ANGLES))
 moving, rolled = 0, [0] * len(ANGLES)
 for k in range(len(library["shapes"])):
     for trial in range(3):
-        speed, moved = (polyhedra_trial(k, trial, float(sys.argv[2]) if len(sys.argv) > 2 else 0.03)
-                        if model == "polyhedra" else cluster_trial(k, trial))
+        speed, moved = polyhedra_trial(k, trial, relative_dilation) if model == "polyhedra" else cluster_trial(k, trial)
         moving += speed > 0.01
         rolled = [r + (m > 0.02) for r, m in zip(rolled, moved)]
         print(f"  stone {k} ({library['shapes'][k]['name']}), orientation {trial}: {speed:.1e} m/s; "

@@ -131,6 +131,11 @@ for fixed, r_star in ((0.0, 5e-3), (2.36e-3, 2.36e-3)):
 
 # 5. Invalid input is refused when the material is made, with the attribute named.
 try:
+    Ip2_BallastMat_BallastMat_BallastPhys(fixedEffectiveRadius=-1e-3)
+    check(False, "fixedEffectiveRadius -1e-3 must be refused")
+except Exception as error:
+    check("fixedEffectiveRadius" in str(error), f"fixedEffectiveRadius -1e-3 refused: {error}")
+try:
     BallastMat(restitution=1.5)
     check(False, "restitution 1.5 must be refused")
 except Exception as error:

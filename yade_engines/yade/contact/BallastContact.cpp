@@ -63,6 +63,13 @@ railcosim::kernels::ContactMaterial contactMaterialOf(const Material& material, 
 // Every attribute is checked here, on the Python side of the simulation, so that the parallel interaction
 // loop never meets an invalid material (an exception there cannot be reported cleanly). The contact law's own
 // check of a material is the one used.
+// Refused when set (from Python or a loaded file), not inside the parallel interaction loop, where a throw aborts.
+void Ip2_BallastMat_BallastMat_BallastPhys::postLoad(Ip2_BallastMat_BallastMat_BallastPhys&) {
+  if (!(fixedEffectiveRadius >= 0))
+    throw std::invalid_argument("Ip2_BallastMat_BallastMat_BallastPhys.fixedEffectiveRadius must be >= 0 m (0: R* from "
+                                "the bodies), got " + std::to_string(double(fixedEffectiveRadius)));
+}
+
 void BallastMat::postLoad(BallastMat&) {
   kernels::validate(contactMaterialOf(*this, "BallastMat"), "BallastMat '" + label + "'");
 }

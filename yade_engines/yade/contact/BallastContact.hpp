@@ -98,10 +98,11 @@ class Ip2_BallastMat_BallastMat_BallastPhys : public IPhysFunctor {
 public:
   void go(const shared_ptr<Material>& material1, const shared_ptr<Material>& material2,
           const shared_ptr<Interaction>& interaction) override;
+  void postLoad(Ip2_BallastMat_BallastMat_BallastPhys&);
   FUNCTOR2D(BallastMat, BallastMat);
   // clang-format off
 	YADE_CLASS_BASE_DOC_ATTRS(Ip2_BallastMat_BallastMat_BallastPhys,IPhysFunctor,"Creates :yref:`BallastPhys` from two :yref:`BallastMat` (railcosim) with the contact law's one mixing rule (docs/contact-models.md): equivalent properties (Irazábal eq. 3.27; spheres use their radius, other shapes count as flat walls; clump members use their clump's mass), damping ratio from restitution, the normal sub-model from the roughness attributes, μ0 = tan(min friction angle), stress-dependent friction for members of different clumps, and bounded rolling friction.",
-		((Real,fixedEffectiveRadius,0.0,,"R* [m] given to every contact instead of R1R2/(R1+R2) when > 0 (0: from the bodies). For studies of a paper that gives one contact radius for all contacts of its clumps, e.g. Tolomeo & McDowell 2022 Table 1, R* = 2.36 mm."))
+		((Real,fixedEffectiveRadius,0.0,Attr::triggerPostLoad,"R* [m] given to every contact instead of R1R2/(R1+R2) when > 0 (0: from the bodies). For studies of a paper that gives one contact radius for all contacts of its clumps, e.g. Tolomeo & McDowell 2022 Table 1, R* = 2.36 mm."))
 	);
   // clang-format on
 };

@@ -108,13 +108,7 @@ for w in range(first, windows):
 engine.finalize()
 wall_time = time.monotonic() - wall_start
 # 5. What the post-processing reads (dem_info.json): dem.py's fields, the coupling figures under FemCouplingEngine's names.
-info = {"subcycles": subcycles, "exchanges": int(figures["windows"]), "scheme": options["scheme"],
-        "bridge_time_s": figures["bridge_time"], "mapping_time_s": figures["mapping_time"],
-        "wait_time_s": figures["wait_time"], "interface_work_dem_j": figures["interface_work_dem"],
-        "interface_work_fem_j": figures["interface_work_fem"], "implicit_passes": int(figures["implicit_passes"]),
-        "max_window_passes": int(figures["max_window_passes"]),
-        "unconverged_windows": int(figures["unconverged_windows"]), "checkpoint_time_s": figures["checkpoint_time"],
-        "restart_checkpoint_time_s": figures["restart_checkpoint_time"], "steps": windows * subcycles, "dt": engine.dt,
+info = {**engine.coupling_info(options["scheme"]), "steps": windows * subcycles, "dt": engine.dt,
         "wall_time_s": wall_time,
         "particles": len(stones), "stones": len(stones), "sensors": len(sensors.indices), "particle_mass_kg": mass,
         "critical_time_step_s": critical, "design_contact_force_n": design["contact_force_n"], "seat_height_m": seat,

@@ -51,6 +51,14 @@ def flow_rate(times, passed, span):
 
 
 class SteelSheet(Case):
+    def dem_command(self, p, endpoint, out):
+        """dem.py on YADE, or dem_driver.py (dem_driver = "standalone": the polyhedra library, the GPU machine's path) on
+        this Python with dem_threads OpenMP threads."""
+        if p["dem_driver"] == "yade":
+            return super().dem_command(p, endpoint, out)
+        return ["env", f"OMP_NUM_THREADS={p['dem_threads']}", sys.executable, os.path.join(p["case_dir"], "dem_driver.py"),
+                os.path.join(out, "parameters.json"), endpoint, out]
+
     def fem_arguments(self, p):
         """The free span x = clamp_length..sheet_length as a P2 solid shell, one layer, graded towards the clamp (face 4,
         x = clamp_length), coupled on its top face (6), monitored on the mid-surface at the measurement position."""

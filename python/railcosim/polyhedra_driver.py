@@ -60,14 +60,16 @@ def _library():
             "rcp_last_error": (s, []), "rcp_create": (p, [d, _D, _D, i, i, i, d, i, d, s]), "rcp_destroy": (None, [p]),
             "rcp_add_stone": (i, [p, _D, i, d, d, _D, _D, _D, _D]), "rcp_set_walls": (i, [p, _D, i, _I, _D, i]),
             "rcp_initialize": (i, [p]), "rcp_critical_time_step": (d, [p, d, d]), "rcp_set_time_step": (i, [p, d]),
-            "rcp_time_step": (d, [p]), "rcp_set_wall_velocity": (i, [p, _I, i, _D]), "rcp_step": (i, [p, i]),
+            "rcp_time_step": (d, [p]), "rcp_set_wall_velocity": (i, [p, _I, i, _D]),
+            "rcp_set_wall_node_velocities": (i, [p, _I, i, _D]), "rcp_step": (i, [p, i]),
             "rcp_wall_force": (i, [p, _I, i, _D]), "rcp_time": (d, [p]), "rcp_stone_count": (i, [p]),
             "rcp_templates": (i, [p]), "rcp_mean_contacts": (d, [p]), "rcp_backend": (i, [p, s, i]),
             "rcp_states": (i, [p, _I, i, _D, _D, _D, _D, _D]), "rcp_contact_count": (i, [p]),
             "rcp_contact_count_of": (i, [p, _I, i]),
             "rcp_contacts": (i, [p, _I, _I, _I, _D, _D, _D, _D]),
             "rcp_connect": (i, [p, s, s, s, d, d, i, d, d, i, d, i, _D]), "rcp_window": (i, [p]),
-            "rcp_coupling_figures": (i, [p, _D]), "rcp_surface_triangles": (i, [p, _I]), "rcp_finalize": (i, [p]),
+            "rcp_coupling_figures": (i, [p, _D]), "rcp_surface_triangles": (i, [p, _I]),
+            "rcp_surface_state": (i, [p, _D, _D]), "rcp_finalize": (i, [p]),
             "rcp_set_restart": (i, [p, s, s, d, s]), "rcp_checkpoint_pending": (i, [p]),
             "rcp_complete_checkpoint": (i, [p, s, ctypes.c_char_p, ctypes.c_long]),
             "rcp_resumed_state": (ctypes.c_long, [p, ctypes.c_char_p, ctypes.c_long]),
@@ -189,6 +191,13 @@ class PolyhedraBed:
         v = _doubles(velocity, 3)
         self._check(self._lib.rcp_set_wall_velocity(self._handle, _pointer(t), t.size, _pointer(v)))
 
+    def set_wall_node_velocities(self, triangles, velocities):
+        """Velocities of the corners of wall triangles `triangles`, (count, 3, 3) [m/s]: constant over the following
+        batches or coupling windows until set again (a turning flap: each window's chord velocities)."""
+        t = np.ascontiguousarray(triangles, dtype=np.int32)
+        v = _doubles(velocities, 9 * t.size)
+        self._check(self._lib.rcp_set_wall_node_velocities(self._handle, _pointer(t), t.size, _pointer(v)))
+
     def step(self, steps):
         self._check(self._lib.rcp_step(self._handle, int(steps)))
 
@@ -272,11 +281,30 @@ class PolyhedraBed:
         self._check(self._lib.rcp_coupling_figures(self._handle, _pointer(out)))
         return dict(zip(FIGURES, out.tolist()))
 
+    def coupling_info(self, scheme):
+        """The coupling figures every case writes to dem_info.json, under the names of results.coupling_info (YADE's
+        FemCouplingEngine), for the coupling `scheme`."""
+        f = self.figures()
+        return {"subcycles": int(f["subcycles"]), "exchanges": int(f["windows"]), "scheme": scheme,
+                "bridge_time_s": f["bridge_time"], "mapping_time_s": f["mapping_time"], "wait_time_s": f["wait_time"],
+                "interface_work_dem_j": f["interface_work_dem"], "interface_work_fem_j": f["interface_work_fem"],
+                "implicit_passes": int(f["implicit_passes"]), "max_window_passes": int(f["max_window_passes"]),
+                "unconverged_windows": int(f["unconverged_windows"]), "checkpoint_time_s": f["checkpoint_time"],
+                "restart_checkpoint_time_s": f["restart_checkpoint_time"]}
+
     def surface_triangles(self):
         n = int(self.figures()["surface_triangles"])
         out = np.zeros(3 * n, np.int32)
         self._check(self._lib.rcp_surface_triangles(self._handle, _pointer(out)))
         return out.reshape(n, 3)
+
+    def surface_state(self):
+        """The surface's node positions now (the next window's start) and the nodal forces of the last exchange, (n, 3)
+        each [m, N]."""
+        n = int(self.figures()["surface_nodes"])
+        positions, forces = np.zeros(3 * n), np.zeros(3 * n)
+        self._check(self._lib.rcp_surface_state(self._handle, _pointer(positions), _pointer(forces)))
+        return positions.reshape(n, 3), forces.reshape(n, 3)
 
     def finalize(self):
         self._check(self._lib.rcp_finalize(self._handle))

@@ -25,8 +25,12 @@ int BodyFrameStones::add(PolyhedraSystem& system, const std::vector<double>& ver
   std::vector<double> key = vertices;
   key.push_back(dilationRadius);
   auto found = templateOf_.find(key);
-  if (found == templateOf_.end())
-    found = templateOf_.emplace(key, system.addShape(convexHullTemplate(vertices, dilationRadius, density))).first;
+  if (found == templateOf_.end()) {
+    // One vertex: a sphere of radius dilationRadius (a point core has no hull; the system takes it as it is).
+    const ShapeTemplate shape = vertices.size() == 3 ? ShapeTemplate{vertices, {}, dilationRadius, density}
+                                                     : convexHullTemplate(vertices, dilationRadius, density);
+    found = templateOf_.emplace(key, system.addShape(shape)).first;
+  }
   const ShapeProperties& props = system.shapeProperties(found->second);
   const Eigen::Quaterniond toBody = quaternion(props.principalToGiven.data());
   const Eigen::Vector3d centroid(props.centroid[0], props.centroid[1], props.centroid[2]);

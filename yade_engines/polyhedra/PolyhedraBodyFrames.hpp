@@ -16,7 +16,8 @@ namespace railcosim::polyhedra {
 /// bed handed to either gives the same system and the same states, bit for bit.
 class BodyFrameStones {
 public:
-  /// Registers a stone with `system` (before its first step): core `vertices` (3 per vertex, body frame) [m],
+  /// Registers a stone with `system` (before its first step): core `vertices` (3 per vertex, body frame; their convex
+  /// hull, or a single vertex: a sphere of radius `dilationRadius` about it) [m],
   /// `dilationRadius` [m], `density` [kg/m^3]; the body frame's origin at `position` [m] with orientation
   /// `orientation` (w,x,y,z), the origin's velocity [m/s] and the angular velocity [rad/s] (world frame). Returns the
   /// stone's index in the system.

@@ -73,8 +73,9 @@ struct rcp_bed {
   bool initialized = false, stepped = false;
   double time = 0.0;         // advanced step by step, as a YADE scene's clock
   double meanContacts = 0.0; // of the last batch
-  // Walls: each triangle's three corners as nodes of their own, then the coupled surface's nodes.
-  std::vector<double> facetNodes, facetNodeVelocities;
+  // Walls: each triangle's three corners as nodes of their own, then the coupled surface's nodes. givenFacetNodes: as
+  // rcp_set_walls gave them (a resumed run's script builds its walls so again; facetNodes have moved since).
+  std::vector<double> facetNodes, facetNodeVelocities, givenFacetNodes;
   std::vector<std::int32_t> materialOfTriangle;
   std::vector<poly::Material> wallMaterials;
   bool facetsMove = false;
@@ -155,7 +156,7 @@ struct rcp_bed {
 
   // One pass over the current window (FemCouplingEngine::advancePolyhedraWindow and the exchange after it).
   railcosim::WindowResult windowPass() {
-    std::vector<double> nodes = facetNodes, velocities(facetNodes.size(), 0.0);
+    std::vector<double> nodes = facetNodes, velocities = facetNodeVelocities;
     nodes.insert(nodes.end(), windowStart.begin(), windowStart.end());
     velocities.insert(velocities.end(), windowVelocity.begin(), windowVelocity.end());
     const auto stepping = Clock::now();
@@ -213,6 +214,7 @@ struct rcp_bed {
     state.reals(std::vector<double>(surfaceConnectivity.begin(), surfaceConnectivity.end()));
     state.i64(window);
     state.reals({time, meanContacts, workDem, workFem, savedTime, savedWorkDem, savedWorkFem});
+    state.reals(givenFacetNodes);
     state.reals(facetNodes);
     state.reals(facetNodeVelocities);
     state.flag(facetsMove);
@@ -248,8 +250,12 @@ struct rcp_bed {
     if (clock.size() != 7) state.fail("7 clock and work figures expected");
     time = clock[0], meanContacts = clock[1], workDem = clock[2], workFem = clock[3];
     savedTime = clock[4], savedWorkDem = clock[5], savedWorkFem = clock[6];
+    const std::vector<double> given = state.reals();
+    if (given != givenFacetNodes) refuse("the walls differ from the saved ones");
     std::vector<double> nodes = state.reals(), velocities = state.reals();
-    if (nodes != facetNodes) refuse("the walls differ from the saved ones");
+    if (nodes.size() != facetNodes.size() || velocities.size() != facetNodes.size())
+      state.fail("wall node positions and velocities of the given walls expected");
+    facetNodes = std::move(nodes);
     facetNodeVelocities = std::move(velocities);
     facetsMove = state.flag();
     windowStart = state.reals();
@@ -295,6 +301,29 @@ struct rcp_bed {
     return folder;
   }
 
+  // Moving wall triangles (plates, turning flaps) have covered `duration` at their nodes' constant velocities: the
+  // system's nodes went the same way in the batch (stepBatch), and the next batch starts where they ended.
+  void advanceFacets(double duration) {
+    if (!facetsMove) return;
+    for (std::size_t k = 0; k < facetNodes.size(); ++k) facetNodes[k] += facetNodeVelocities[k] * duration;
+  }
+
+  // Sets the velocities of the corners of wall triangles `triangles` (9 values per triangle, or 3 for all corners).
+  void setFacetVelocities(const int32_t* triangles, int count, const double* velocities, bool perCorner) {
+    initialize();
+    for (int k = 0; k < count; ++k) {
+      const int t = triangles[k];
+      if (t < 0 || t >= facetTriangles()) throw std::invalid_argument("wall triangle " + std::to_string(t) + " out of range");
+      for (int corner = 0; corner < 3; ++corner)
+        for (int c = 0; c < 3; ++c) {
+          const double v = perCorner ? velocities[9 * k + 3 * corner + c] : velocities[c];
+          if (!std::isfinite(v)) throw std::invalid_argument("a wall velocity is not finite");
+          facetNodeVelocities[9 * static_cast<std::size_t>(t) + 3 * corner + c] = v;
+        }
+    }
+    facetsMove = true;
+  }
+
   void runWindow() {
     if (!coupling) throw std::logic_error("not coupled: rcp_connect first");
     while (true) {
@@ -327,6 +356,7 @@ struct rcp_bed {
         warnedUnconverged = true;
       }
       workFem += result.femWork;
+      advanceFacets(subcycles * parameters.timeStep);
       ++window;
       poly::beginSurfaceWindow(*coupling, femDt, windowStart, windowVelocity);
       if (checkpointEvery > 0 && window % std::max(1L, std::lround(checkpointEvery / femDt)) == 0)
@@ -390,6 +420,7 @@ int rcp_set_walls(rcp_bed* bed, const double* corners, int triangleCount, const 
       [&] {
         if (bed->initialized) throw std::logic_error("walls can only be set before the bed is initialized");
         bed->facetNodes.assign(corners, corners + 9 * triangleCount);
+        bed->givenFacetNodes = bed->facetNodes;
         bed->facetNodeVelocities.assign(bed->facetNodes.size(), 0.0);
         bed->materialOfTriangle.assign(materialOfTriangle, materialOfTriangle + triangleCount);
         bed->wallMaterials.clear();
@@ -424,15 +455,14 @@ double rcp_time_step(rcp_bed* bed) { return bed->parameters.timeStep; }
 
 int rcp_set_wall_velocity(rcp_bed* bed, const int32_t* triangles, int count, const double* velocity) {
   return guarded("rcp_set_wall_velocity", [&] {
-    if (bed->coupling) throw std::logic_error("walls stay fixed while a coupled surface drives the bed");
-    bed->initialize();
-    for (int k = 0; k < count; ++k) {
-      const int t = triangles[k];
-      if (t < 0 || t >= bed->facetTriangles()) throw std::invalid_argument("wall triangle " + std::to_string(t) + " out of range");
-      for (int node = 3 * t; node < 3 * t + 3; ++node)
-        for (int c = 0; c < 3; ++c) bed->facetNodeVelocities[3 * node + c] = velocity[c];
-    }
-    bed->facetsMove = true;
+    bed->setFacetVelocities(triangles, count, velocity, false);
+    return 0;
+  }, -1);
+}
+
+int rcp_set_wall_node_velocities(rcp_bed* bed, const int32_t* triangles, int count, const double* velocities) {
+  return guarded("rcp_set_wall_node_velocities", [&] {
+    bed->setFacetVelocities(triangles, count, velocities, true);
     return 0;
   }, -1);
 }
@@ -441,10 +471,7 @@ int rcp_step(rcp_bed* bed, int steps) {
   return guarded("rcp_step", [&] {
     if (bed->coupling) throw std::logic_error("a coupled bed advances by rcp_window");
     bed->stepBatch(steps, bed->facetNodes, bed->facetNodeVelocities, bed->facetsMove);
-    if (bed->facetsMove) {
-      const double duration = steps * bed->parameters.timeStep;
-      for (std::size_t k = 0; k < bed->facetNodes.size(); ++k) bed->facetNodes[k] += bed->facetNodeVelocities[k] * duration;
-    }
+    bed->advanceFacets(steps * bed->parameters.timeStep);
     return 0;
   }, -1);
 }
@@ -629,6 +656,15 @@ int rcp_surface_triangles(rcp_bed* bed, int32_t* triangles) {
   return guarded("rcp_surface_triangles", [&] {
     std::copy(bed->surfaceConnectivity.begin(), bed->surfaceConnectivity.end(), triangles);
     return bed->surfaceTriangles;
+  }, -1);
+}
+
+int rcp_surface_state(rcp_bed* bed, double* positions, double* forces) {
+  return guarded("rcp_surface_state", [&] {
+    if (!bed->coupling) throw std::logic_error("not coupled: rcp_connect first");
+    if (positions) std::copy(bed->windowStart.begin(), bed->windowStart.end(), positions);
+    if (forces) std::copy(bed->nodalForces.begin(), bed->nodalForces.end(), forces);
+    return static_cast<int>(bed->windowStart.size() / 3);
   }, -1);
 }
 

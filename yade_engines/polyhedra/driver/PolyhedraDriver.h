@@ -40,8 +40,12 @@ int rcp_initialize(rcp_bed* bed);
 double rcp_critical_time_step(rcp_bed* bed, double normal_force, double impact_velocity);
 int rcp_set_time_step(rcp_bed* bed, double time_step);
 double rcp_time_step(rcp_bed* bed);
-/* Wall triangles moving rigidly with `velocity` from the next batch on (a plate); not while a surface is coupled. */
+/* Wall triangles moving rigidly with `velocity` (3) from the next batch or coupling window on (a plate). */
 int rcp_set_wall_velocity(rcp_bed* bed, const int32_t* triangles, int count, const double* velocity);
+/* Wall triangles whose corners move each with its own velocity (9 per triangle: corner 1, 2, 3), constant over the next
+ * batches or coupling windows until set again (a turning flap: the chord velocities of one window). Coupled or not;
+ * an implicit window's repetition starts again from the window's start. */
+int rcp_set_wall_node_velocities(rcp_bed* bed, const int32_t* triangles, int count, const double* velocities);
 /* Advances `steps` steps in one batch (the moving walls at constant velocity). */
 int rcp_step(rcp_bed* bed, int steps);
 /* Sum of the mean forces of the last batch on the wall triangles `triangles` [N] into force (3). */
@@ -84,6 +88,9 @@ int rcp_window(rcp_bed* bed);
 int rcp_coupling_figures(rcp_bed* bed, double* figures);
 /* The surface triangles (3 node indices each) into triangles (3 x surface triangles). */
 int rcp_surface_triangles(rcp_bed* bed, int32_t* triangles);
+/* The surface's node positions now, the start of the next window (3 per node), and the nodal forces sent at the last
+ * exchange (3 per node); either pointer may be null. Returns the number of surface nodes. */
+int rcp_surface_state(rcp_bed* bed, double* positions, double* forces);
 /* Restart checkpoints (docs/protocol.md section 12), set before rcp_connect: `folder` holds them (both sides'),
  * `run` identifies the run in each manifest, one is ordered every `every` seconds of simulated time (0: none) at
  * the exchange that ends a window; `resume_from` (a checkpoint folder; "" for a fresh run) is checked whole by

@@ -4,6 +4,8 @@
 # pack_sleeper_device.sh made, through the case runner (tools/run_case.py) as on the desk: the same case, larger.
 # Usage (repository root, on the GPU machine): benchmarks/gpu/run_sleeper_device.sh OUTDIR [runner options ...]
 #   e.g. ... OUTDIR --set stones=0 --set bed_width_m=1.0 --set cycles=100      (the seed's scene, README)
+# CASE=NAME runs another case of cases/ whose DEM side has a standalone driver (dem_driver = "standalone"), the same
+# way: CASE=steel_sheet (cases/steel_sheet/README.md, "On the GPU machine").
 # Environment: RUNTIME_ARCHIVE (default build/device-runtime.tgz), RUNTIME_DIR (where it is unpacked, default a
 # folder under /tmp), RAILCOSIM_CACHE (where bed files are kept, default OUTDIR/cache), THREADS (OpenMP threads of
 # the DEM process, default the cores), PYTHON (default python3). Writes OUTDIR/run (the results
@@ -80,7 +82,7 @@ if [ -n "${RESUME:-}" ]; then
   fi
   target=(--resume "$partial")
 fi
-${PYTHON:-python3} "$root/tools/run_case.py" "$root/cases/sleeper_on_ballast" "${target[@]}" \
+${PYTHON:-python3} "$root/tools/run_case.py" "$root/cases/${CASE:-sleeper_on_ballast}" "${target[@]}" \
   --set dem_driver=standalone --set polyhedra_backend=cuda --set "dem_threads=${THREADS:-$(nproc)}" "$@"
 code=$?
 set -e

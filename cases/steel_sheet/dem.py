@@ -88,8 +88,13 @@ def bulk_figures():
             park(i, dem.state["parked"])
             dem.state["parked"] += 1
     states = [O.bodies[i].state for i in grains]
-    return rig.bulk_figures(np.array([tuple(s.pos) for s in states]), np.array([tuple(s.vel) for s in states]), masses,
-                            np.array([tuple(v) for v in coupling.nodePositions], dtype=float))
+    positions, velocities = np.array([tuple(s.pos) for s in states]), np.array([tuple(s.vel) for s in states])
+    nodes = np.array([tuple(v) for v in coupling.nodePositions], dtype=float)
+    figures = rig.bulk_figures(positions, velocities, masses, nodes)
+    if figures["through_sheet"]:
+        for line in rig.describe_through(dem.time, positions, velocities, nodes, rig.through_sheet(positions, nodes)):
+            print(line, flush=True)
+    return figures
 
 
 def record():

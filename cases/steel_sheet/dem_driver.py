@@ -160,11 +160,14 @@ def move_flaps(t):
     state["flaps_moving"] = after != before
 
 
-def bulk_figures():
+def bulk_figures(t):
     positions, _, velocities, _, _ = engine.states()
     nodes, _ = engine.surface_state()
-    return {**rig.bulk_figures(positions, velocities, masses, nodes),
-            "kinetic_energy": 0.5 * float(np.sum(masses * np.sum(velocities ** 2, axis=1)))}
+    figures = rig.bulk_figures(positions, velocities, masses, nodes)
+    if figures["through_sheet"]:
+        for line in rig.describe_through(t, positions, velocities, nodes, rig.through_sheet(positions, nodes)):
+            print(line, flush=True)
+    return {**figures, "kinetic_energy": 0.5 * float(np.sum(masses * np.sum(velocities ** 2, axis=1)))}
 
 
 every = solvers.progress_period(p)
@@ -188,7 +191,7 @@ for w in range(first, windows):
     figures = engine.figures()
     t = (w + 1) * window_length
     if (w + 1) % bulk_every == 0 or not state["bulk"]:
-        state["bulk"] = bulk_figures()
+        state["bulk"] = bulk_figures(t)
     if t >= p["duration_s"] - p["average_s"] - 1e-12:
         forces = engine.surface_state()[1]
         state["force_sum"] = forces if state["force_sum"] is None else state["force_sum"] + forces

@@ -97,13 +97,12 @@ class Rig:
         dx, dz = points[:, 0] - hx, points[:, 2] - hz
         return np.column_stack([hx + c * dx + s * dz, points[:, 1], hz - s * dx + c * dz])
 
-    def bulk_figures(self, positions, velocities, masses, nodes):
-        """Masses above the flaps, past the flow plane, on the sheet, on the clamp and below the sheet (parked); grains
-        through the sheet; the top speed. positions, velocities (n, 3) of the grains, masses (n), nodes (m, 3): the
-        coupled face's node positions. A grain centre more than a quarter of the smallest diameter below the lowest
-        point of the deflected top face across its width (at the grain's x), inside the sheet's footprint less a grain
-        radius and above the parking level, has passed through the sheet."""
-        p, top, W = self.p, self.top, self.width
+    def through_sheet(self, positions, nodes):
+        """Mask of the grains (positions (n, 3)) that have passed through the sheet, whose coupled face's nodes are at
+        `nodes` (m, 3): a grain centre more than a quarter of the smallest diameter below the lowest point of the
+        deflected top face across its width (at the grain's x), inside the sheet's footprint less a grain radius and
+        above the parking level."""
+        p = self.p
         d_min, d_max = p["diameter_min"], p["diameter_max"]
         x, y, z = positions[:, 0], positions[:, 1], positions[:, 2]
         order = np.argsort(nodes[:, 0])
@@ -114,13 +113,31 @@ class Rig:
         lowest = np.full(column_of.max() + 1, np.inf)
         np.minimum.at(lowest, column_of, nodes[:, 2])
         columns = np.array([nodes[column_of == c, 0].mean() for c in range(len(lowest))])
+        inside = ((p["clamp_length"] + 0.5 * d_max < x) & (x < p["sheet_length"] - 0.5 * d_max) & (0.5 * d_max < y)
+                  & (y < p["sheet_width"] - 0.5 * d_max))
+        return inside & (Z_PARK < z) & (z < np.interp(x, columns, lowest) - 0.25 * d_min)
+
+    def bulk_figures(self, positions, velocities, masses, nodes):
+        """Masses above the flaps, past the flow plane, on the sheet, on the clamp and below the sheet (parked); the
+        grains through the sheet (through_sheet); the top speed. positions, velocities (n, 3) of the grains, masses (n),
+        nodes (m, 3): the coupled face's node positions."""
+        p, top, W = self.p, self.top, self.width
+        x, y, z = positions[:, 0], positions[:, 1], positions[:, 2]
         lying = (top < z) & (z < top + 0.05) & (0.0 < y) & (y < W)
         over_sheet = lying & (p["clamp_length"] < x) & (x < p["sheet_length"])
         on_clamp = lying & (x <= p["clamp_length"])
-        inside = ((p["clamp_length"] + 0.5 * d_max < x) & (x < p["sheet_length"] - 0.5 * d_max) & (0.5 * d_max < y)
-                  & (y < p["sheet_width"] - 0.5 * d_max))
-        through = inside & (Z_PARK < z) & (z < np.interp(x, columns, lowest) - 0.25 * d_min)
+        through = self.through_sheet(positions, nodes)
         return dict(passed_mass=float(masses[z < self.z_flow].sum()), hopper_mass=float(masses[z > self.z_flaps].sum()),
                     sheet_mass=float(masses[over_sheet].sum()), clamp_mass=float(masses[on_clamp].sum()),
                     parked_mass=float(masses[z <= Z_PARK].sum()), through_sheet=int(np.count_nonzero(through)),
                     max_speed=float(np.sqrt((velocities ** 2).sum(axis=1)).max()))
+
+    @staticmethod
+    def describe_through(t, positions, velocities, nodes, through):
+        """A line per grain of the mask `through` (for the log: where and how fast it passed the sheet)."""
+        lines = []
+        for i in np.flatnonzero(through):
+            near = nodes[np.argmin(np.abs(nodes[:, 0] - positions[i, 0]) + np.abs(nodes[:, 1] - positions[i, 1]))]
+            lines.append(f"t={t:.4f} s: grain {i} below the sheet at {np.round(positions[i], 4).tolist()} m, velocity "
+                         f"{np.round(velocities[i], 3).tolist()} m/s; the face's nearest node at {np.round(near, 4).tolist()} m")
+        return lines

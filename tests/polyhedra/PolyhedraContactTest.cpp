@@ -10,6 +10,7 @@
 #include <vector>
 
 #include "PolyhedraScenarioRuns.hpp"
+#include "polyhedra/PolyhedraBodyFrames.hpp"
 #include "polyhedra/PolyhedraShapes.hpp"
 #include "polyhedra/PolyhedraStep.hpp"
 #include "polyhedra/PolyhedraSystem.hpp"
@@ -1024,4 +1025,32 @@ BOOST_AUTO_TEST_CASE(contact_law_scenarios_give_the_closed_forms) {
   const double restitution = railcosim::testing::runImpactScenario(Backend::Cpu);
   BOOST_TEST_MESSAGE(std::setprecision(9) << "polyhedra CPU impact: e = " << restitution);
   BOOST_TEST(std::fabs(restitution / scenario::impactRestitution - 1.0) < scenario::restitutionTolerance);
+}
+
+// A sphere as a one-point core (the steel sheet's wheat grains): registered through BodyFrameStones like every driver's
+// stone, it has the sphere's mass, and resting on a steel floor under gravity it sinks by Hertz's static overlap,
+// δ = (3 m g / (4 E* √r))^(2/3) with E* = 1 / ((1 − ν1²)/E1 + (1 − ν2²)/E2) (Johnson 1985, eq. 4.22): the law of the
+// dilation's curvature is a sphere's law.
+BOOST_AUTO_TEST_CASE(point_core_sphere_rests_at_hertz_overlap) {
+  const double r = 0.002, density = 1242.0, g = 9.81;
+  Parameters p;
+  p.timeStep = 1e-6;
+  p.gravity = {0, 0, -g};
+  p.stone = Material{1e8, 0.3, 0.4, 1.0};
+  p.wall = Material{185e9, 0.3, 0.4, 0.22};
+  p.backend = Backend::Cpu;
+  PolyhedraSystem system(p);
+  BodyFrameStones stones;
+  stones.add(system, {0.0, 0.0, 0.0}, r, density, {0.0, 0.0, r}, {1, 0, 0, 0}, {0, 0, 0}, {0, 0, 0});
+  system.setWalls({-1, -1, 0, 1, -1, 0, 1, 1, 0, -1, 1, 0}, {0, 1, 2, 0, 2, 3});
+  const double mass = density * 4.0 / 3.0 * pi * r * r * r;
+  BOOST_TEST(std::fabs(stones.mass(0) - mass) < 1e-12 * mass);
+  system.step(100000); // 0.1 s: the viscous damping of e = 0.4 stops the bounce (period 0.2 ms) within a few ms
+  const double compliance = (1 - 0.3 * 0.3) / 1e8 + (1 - 0.3 * 0.3) / 185e9;
+  const double overlap = std::pow(3.0 * mass * g * compliance / (4.0 * std::sqrt(r)), 2.0 / 3.0);
+  const double sunk = r - system.positions()[2];
+  BOOST_TEST_MESSAGE("overlap " << sunk << " m, Hertz " << overlap << " m");
+  // At rest to 1e-6 of the overlap; the tolerance is the step's: 1e-4 relative covers the O(Δt²) Verlet offset.
+  BOOST_TEST(std::fabs(sunk - overlap) < 1e-4 * overlap);
+  BOOST_TEST(std::fabs(system.velocities()[2]) < 1e-6);
 }

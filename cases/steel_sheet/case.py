@@ -49,12 +49,12 @@ def flow_rate(times, passed, span):
 
 class SteelSheet(Case):
     def dem_command(self, p, endpoint, out):
-        """dem.py on YADE, or dem_driver.py (dem_driver = "standalone": the polyhedra library, the GPU machine's path) on
-        this Python with dem_threads OpenMP threads."""
+        """dem.py on YADE, or dem_driver.py (dem_driver = "standalone": the polyhedra library, the GPU machine's
+        path) on this Python with dem_threads OpenMP threads."""
         if p["dem_driver"] == "yade":
             return super().dem_command(p, endpoint, out)
-        return ["env", f"OMP_NUM_THREADS={p['dem_threads']}", sys.executable, os.path.join(p["case_dir"], "dem_driver.py"),
-                os.path.join(out, "parameters.json"), endpoint, out]
+        return ["env", f"OMP_NUM_THREADS={p['dem_threads']}", sys.executable,
+                os.path.join(p["case_dir"], "dem_driver.py"), os.path.join(out, "parameters.json"), endpoint, out]
 
     def fem_arguments(self, p):
         """The free span x = clamp_length..sheet_length as a P2 solid shell, one layer, graded towards the clamp (face 4,
@@ -111,7 +111,10 @@ class SteelSheet(Case):
         coupled = -float(fem["averageMonitorDisplacement"][2])
         strip, beam = closed_form_bounds(p, series["node_positions"], series["mean_nodal_forces"])
         # An unloaded final span (a run that ends before the stream lands) has both bounds 0: any deflection is outside.
-        outside = max(strip - coupled, coupled - beam, 0.0) / strip if strip > 0 else (math.inf if abs(coupled) > 1e-9 else 0.0)
+        if strip > 0:
+            outside = max(strip - coupled, coupled - beam, 0.0) / strip
+        else:
+            outside = math.inf if abs(coupled) > 1e-9 else 0.0
         carried = -float(np.mean(series["interface_force"][final, 2]))
         metrics.update(final_span_deflection_m=coupled, strip_bound_deflection_m=strip, beam_bound_deflection_m=beam,
                        carried_force_n=carried)

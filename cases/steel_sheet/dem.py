@@ -116,7 +116,8 @@ dem.run(record, progress=lambda last: f"hopper {last['hopper_mass']:.3f} kg  pas
 # 6. What the post-processing reads (dem_info.json): the grains, the rig's planes, the final span's mean nodal forces.
 mean_forces = dem.state["force_sum"] / max(1, dem.state["force_windows"])
 dem.save(particles=len(grains), total_grain_mass_kg=total_mass, diameter_min_m=min(diameters),
-         diameter_max_m=max(diameters), flow_plane_z=rig.z_flow, flaps_z=rig.z_flaps, final_kinetic_energy_j=utils.kineticEnergy(),
+         diameter_max_m=max(diameters), flow_plane_z=rig.z_flow, flaps_z=rig.z_flaps,
+         final_kinetic_energy_j=utils.kineticEnergy(),
          parked=dem.state["parked"], mean_force_windows=dem.state["force_windows"],
          arrays={"triangles": np.asarray([tuple(t) for t in coupling.triangles], dtype=int),
                  "node_positions": np.array([tuple(v) for v in coupling.nodePositions], dtype=float), "mean_nodal_forces": mean_forces})

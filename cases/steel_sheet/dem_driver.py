@@ -1,7 +1,7 @@
 # DEM participant of the steel-sheet case without YADE (dem_driver = "standalone"): the same rig (rig.py) on the
 # polyhedra library through its C interface (railcosim.polyhedra_driver), each wheat grain a sphere as a dilated
 # polyhedron with a one-point core (the Hertz law of the dilation's curvature: a sphere's), one coupling window per
-# call; the GPU machine's path, where YADE is not. Differences from dem.py (README "On the GPU machine"): the grains that
+# call; the GPU machine's path, where YADE is not. Differences from dem.py (README "On the GPU machine"): grains that
 # leave the sheet fall into a catch tray 0.3 m below it instead of being parked (the library has no inert bodies), the
 # settled reservoir starts the coupled run without the settling's tangential contact history, the kinetic energy is
 # recorded with the masses every bulk_record_s.
@@ -83,7 +83,8 @@ def neighbour_skin():
 def new_bed(time_step, positions, velocities=None, angular_velocities=None, orientations=None):
     """A bed of the grains (in rig order) at `positions` and the rig's walls."""
     bed = polyhedra_driver.PolyhedraBed(time_step, grain, gravity=(0, 0, -GRAVITY),
-                                        max_neighbours=p["max_neighbours"], max_wall_neighbours=p["max_wall_neighbours"],
+                                        max_neighbours=p["max_neighbours"],
+                                        max_wall_neighbours=p["max_wall_neighbours"],
                                         rebuild_interval=p["rebuild_interval"], neighbour_skin=neighbour_skin(),
                                         backend=p["polyhedra_backend"])
     n = len(diameters)
@@ -131,8 +132,8 @@ windows = int(round(p["duration_s"] / window_length))
 masses = engine.states()[4]
 total_mass = float(masses.sum())
 backend, reason = engine.backend
-print(f"{len(diameters)} grains, {total_mass:.4f} kg, diameters {diameters.min() * 1e3:.2f}-{diameters.max() * 1e3:.2f} "
-      f"mm, hopper {rig.x0:.3f}-{rig.x1:.3f} m filled to {rig.z_top - rig.z_slides:.3f} m; {backend} ({reason})",
+print(f"{len(diameters)} grains, {total_mass:.4f} kg, diameters {diameters.min() * 1e3:.2f}-"
+      f"{diameters.max() * 1e3:.2f} mm, hopper {rig.x0:.3f}-{rig.x1:.3f} m filled to {rig.z_top - rig.z_slides:.3f} m; {backend} ({reason})",
       flush=True)
 print(f"coupled: dt={engine.dt:.3e} s, {subcycles} DEM steps per FEM step, {windows} windows ({options['scheme']}, "
       f"neighbour skin {neighbour_skin() * 1e3:.2f} mm, "
@@ -219,7 +220,8 @@ fastest = int(np.argmax(np.sum(velocities ** 2, axis=1)))
 print(f"{escaped.size} grains below the catch tray (first: {escaped[:5].tolist()}); the fastest grain {fastest} at "
       f"{np.round(positions[fastest], 4).tolist()} m, {np.round(velocities[fastest], 3).tolist()} m/s", flush=True)
 # 4. What the post-processing reads (dem_info.json, dem_timeseries.h5): dem.py's fields.
-info = {**engine.coupling_info(options["scheme"]), "steps": windows * subcycles, "dt": engine.dt, "wall_time_s": wall_time,
+info = {**engine.coupling_info(options["scheme"]), "steps": windows * subcycles, "dt": engine.dt,
+        "wall_time_s": wall_time,
         "particles": len(diameters), "total_grain_mass_kg": total_mass, "diameter_min_m": float(diameters.min()),
         "diameter_max_m": float(diameters.max()), "flow_plane_z": rig.z_flow, "flaps_z": rig.z_flaps,
         "final_kinetic_energy_j": state["bulk"]["kinetic_energy"], "mean_force_windows": state["force_windows"],

@@ -58,7 +58,8 @@ class Rig:
         p, top, W = self.p, self.top, self.width
         x0, x1, xa, xb, xf0, xf1 = self.x0, self.x1, self.xa, self.xb, self.xf0, self.xf1
         zs, zf, zt = self.z_slides, self.z_flaps, self.z_top
-        quads = [("clamp", "steel", [(0, 0, top), (p["clamp_length"], 0, top), (p["clamp_length"], W, top), (0, W, top)]),
+        clamp = p["clamp_length"]
+        quads = [("clamp", "steel", [(0, 0, top), (clamp, 0, top), (clamp, W, top), (0, W, top)]),
                  ("slide", "frame", [(x0, 0, zs), (xa, 0, zs), (xa, W, zs), (x0, W, zs)]),
                  ("slide", "frame", [(xb, 0, zs), (x1, 0, zs), (x1, W, zs), (xb, W, zs)]),
                  ("bin end", "frame", [(x0, 0, zs), (x0, W, zs), (x0, W, zt), (x0, 0, zt)]),
@@ -81,8 +82,8 @@ class Rig:
         return quads
 
     def flap_hinges(self):
-        """{flap name: (hinge point, sense)}: each flap turns about the axis y through its hinge, the left one by +angle,
-        the right one by -angle (both swing down)."""
+        """{flap name: (hinge point, sense)}: each flap turns about the axis y through its hinge, the left one by
+        +angle, the right one by -angle (both swing down)."""
         return {"flap_left": ((self.xf0, 0.0, self.z_flaps), 1.0), "flap_right": ((self.xf1, 0.0, self.z_flaps), -1.0)}
 
     def flap_angle(self, t):
@@ -138,6 +139,7 @@ class Rig:
         lines = []
         for i in np.flatnonzero(through):
             near = nodes[np.argmin(np.abs(nodes[:, 0] - positions[i, 0]) + np.abs(nodes[:, 1] - positions[i, 1]))]
-            lines.append(f"t={t:.4f} s: grain {i} below the sheet at {np.round(positions[i], 4).tolist()} m, velocity "
-                         f"{np.round(velocities[i], 3).tolist()} m/s; the face's nearest node at {np.round(near, 4).tolist()} m")
+            lines.append(f"t={t:.4f} s: grain {i} below the sheet at {np.round(positions[i], 4).tolist()} m, "
+                         f"velocity {np.round(velocities[i], 3).tolist()} m/s; the face's nearest node at "
+                         f"{np.round(near, 4).tolist()} m")
         return lines

@@ -313,7 +313,8 @@ struct rcp_bed {
     initialize();
     for (int k = 0; k < count; ++k) {
       const int t = triangles[k];
-      if (t < 0 || t >= facetTriangles()) throw std::invalid_argument("wall triangle " + std::to_string(t) + " out of range");
+      if (t < 0 || t >= facetTriangles())
+        throw std::invalid_argument("wall triangle " + std::to_string(t) + " out of range");
       for (int corner = 0; corner < 3; ++corner)
         for (int c = 0; c < 3; ++c) {
           const double v = perCorner ? velocities[9 * k + 3 * corner + c] : velocities[c];

@@ -118,7 +118,10 @@ class TriaxialSmallStrain(Case):
             checks.append({"name": "E(λp)/E(p) within the affine and relaxed effective-medium limits (exponent of p)",
                            "value": abs(error), "limit": 0.5 * (0.2567 * p["roughness_fractal_dim"] - 1.0 / 3.0)})
         up, down = phase(series, "loop_loading"), phase(series, "loop_unloading")
-        residual, eu, qu, ed, qd = loop_residual(start, up, down, e0)
+        # The loop's start: its hold at ε_a = 0 under the probe's control (dem.py), whose q is the one it returns to.
+        loop_start = (float(up["axial_strain"][0]), float(up["q"][0]))
+        up = {k: v[1:] for k, v in up.items()}
+        residual, eu, qu, ed, qd = loop_residual(loop_start, up, down, e0)
         if model == "pohrt_popov_plastic":  # value <= limit passes: the residual must exceed loop_residual_limit
             checks.append({"name": "small-strain loop irreversible (elasto-plastic): limit / residual q",
                            "value": p["loop_residual_limit"] / max(residual, 1e-12), "limit": 1.0})

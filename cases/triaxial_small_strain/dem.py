@@ -346,7 +346,10 @@ for target in unload_levels:
 O.loadTmp("confined")
 reference_size = cell_size()
 loop_levels = strain_levels(p["first_strain"], p["loop_strain"], p["levels_per_decade"])
-probe("loop_loading", loop_levels, pressure)
+# The loop starts with a hold at ε_a = 0 under the probe's control (lateral stresses servo-held, axial strain
+# prescribed): switching from the all-stress confinement to it moves q by a few Pa before any strain (7 Pa of the
+# elastic loop's 196 Pa on the default sample), which is not the loop's hysteresis. The loop returns to this start.
+probe("loop_loading", [0.0] + loop_levels, pressure)
 probe("loop_unloading", [p["loop_strain"] - d for d in strain_levels(p["first_strain"], p["loop_strain"],
                                                                       p["levels_per_decade"])[:-1]] + [0.0], pressure)
 if p["pressure_factor"] > 0 and not plastic:  # the scaling check is for elastic networks only (case.py)

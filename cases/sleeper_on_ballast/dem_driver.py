@@ -4,7 +4,6 @@
 # Run by `railcosim run` as: python3 dem_driver.py PARAMETERS.json ENDPOINT OUTDIR (after bed.py, which leaves bed.json)
 # With `--checkpoint-every S` the driver saves a restart checkpoint with the FEM side every S s of simulated time (the
 # polyhedra system, the coupling and this script's time series); `--resume OUT` goes on from the newest one.
-import json
 import os
 import pickle
 import sys
@@ -20,11 +19,7 @@ import preparation as prep  # noqa: E402
 from railcosim import dem as coupled_dem  # noqa: E402  (coupling options; YADE-free)
 from railcosim import polyhedra_driver, results, solvers  # noqa: E402
 
-if len(sys.argv) != 4:
-    raise SystemExit("usage: python3 dem_driver.py PARAMETERS.json ENDPOINT OUTDIR (started by railcosim run)")
-parameters_path, endpoint, out = sys.argv[1:]
-with open(parameters_path) as f:
-    p = json.load(f)
+p, endpoint, out = coupled_dem.participant_arguments()
 scene, bed_record, bed, attrs = loadrun.prepared_bed(p, out)
 duration = p["duration_s"]
 
@@ -80,15 +75,7 @@ class Window:
 
 window = Window()
 every = solvers.progress_period({**p, "duration_s": duration})
-first = 0
-if restart and restart["resume_from"]:
-    # The checkpoint's time series file is put back first; the recorder appends to it.
-    saved = pickle.loads(engine.resumed_state())
-    recorder = results.DemRecorder(out, resume_windows=saved["windows_recorded"])
-    first = int(figures["windows"])
-    print(f"resumed from {restart['resume_from']} at t={figures['time']:.4f} s, window {first}", flush=True)
-else:
-    recorder = results.DemRecorder(out)
+recorder, first, _ = polyhedra_driver.window_recorder(engine, out, restart)  # resumed: appends to the checkpoint's
 wall_start = time.monotonic()
 script_time = 0.0  # this script's own share of each window: sensor readings, time series, checkpoints' files
 for w in range(first, windows):

@@ -8,7 +8,6 @@
 # Run by `railcosim run` as: python3 dem_driver.py PARAMETERS.json ENDPOINT OUTDIR
 # With `--checkpoint-every S` the driver saves a restart checkpoint with the FEM side every S s of simulated time;
 # `--resume OUT` goes on from the newest one.
-import json
 import os
 import pickle
 import sys
@@ -22,11 +21,7 @@ from railcosim import dem as coupled_dem  # noqa: E402  (coupling options; YADE-
 from railcosim import polyhedra_driver, results, solvers  # noqa: E402
 from rig import GRAVITY, Rig  # noqa: E402
 
-if len(sys.argv) != 4:
-    raise SystemExit("usage: python3 dem_driver.py PARAMETERS.json ENDPOINT OUTDIR (started by railcosim run)")
-parameters_path, endpoint, out = sys.argv[1:]
-with open(parameters_path) as f:
-    p = json.load(f)
+p, endpoint, out = coupled_dem.participant_arguments()
 rng = np.random.default_rng(p["seed"])
 rig = Rig(p)
 diameters, centres = rig.grains(rng)
@@ -172,15 +167,9 @@ def bulk_figures(t):
 
 
 every = solvers.progress_period(p)
-first = 0
-if resuming:
-    saved = pickle.loads(engine.resumed_state())
+recorder, first, saved = polyhedra_driver.window_recorder(engine, out, restart)
+if saved:
     state.update(saved["state"])
-    recorder = results.DemRecorder(out, resume_windows=saved["windows_recorded"])
-    first = int(figures["windows"])
-    print(f"resumed from {restart['resume_from']} at t={figures['time']:.4f} s, window {first}", flush=True)
-else:
-    recorder = results.DemRecorder(out)
 coupled_start = time.monotonic()
 script_time = 0.0  # this script's own share: the flaps, the counts, the time series, the checkpoints' files
 for w in range(first, windows):

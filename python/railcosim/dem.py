@@ -173,7 +173,7 @@ def participant_arguments(argv=None):
     """(parameters, endpoint, results folder) from the command line `railcosim run` gives dem.py."""
     argv = sys.argv if argv is None else argv
     if len(argv) != 4:
-        raise SystemExit(f"usage: railcosim yade {argv[0]} PARAMETERS.json ENDPOINT OUTDIR (started by railcosim run)")
+        raise SystemExit(f"usage: {argv[0]} PARAMETERS.json ENDPOINT OUTDIR (a DEM participant started by railcosim run)")
     parameters_path, endpoint, out = argv[1:]
     with open(parameters_path) as f:
         return json.load(f), endpoint, out

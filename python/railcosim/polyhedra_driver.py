@@ -91,6 +91,22 @@ def restart_settings(environment=os.environ):
     return {"folder": folder, "run": run, "every": float(every) if every else 0.0, "resume_from": resume or None}
 
 
+def window_recorder(bed, out, restart):
+    """(recorder, first window, saved state) of a standalone driver's coupled run, after connect: a new DemRecorder
+    (results.py) from window 0, or, resuming (restart_settings() with resume_from), the checkpoint's time series put
+    back and appended to from the checkpoint's window, with the state the script saved there (its dict, unpickled;
+    None for a new run). The script saves that dict with its checkpoint as {"windows_recorded": len(recorder), ...}."""
+    import pickle
+
+    from railcosim import results
+    if not (restart and restart["resume_from"]):
+        return results.DemRecorder(out), 0, None
+    saved = pickle.loads(bed.resumed_state())  # puts the checkpoint's files back first
+    first = int(bed.figures()["windows"])
+    print(f"resumed from {restart['resume_from']} at t={bed.figures()['time']:.4f} s, window {first}", flush=True)
+    return results.DemRecorder(out, resume_windows=saved["windows_recorded"]), first, saved
+
+
 def _doubles(values, count=None):
     array = np.ascontiguousarray(values, dtype=np.float64).ravel()
     if count is not None and array.size != count:

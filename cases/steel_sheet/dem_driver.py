@@ -156,14 +156,23 @@ def move_flaps(t):
     state["flaps_moving"] = after != before
 
 
+inertia = 0.4 * masses * (0.5 * diameters) ** 2  # a sphere's, 2/5 m r^2
+
+
+def kinetic_energy(velocities, angular_velocities):
+    """Translational and rotational, as YADE's utils.kineticEnergy [J]."""
+    return 0.5 * float(np.sum(masses * np.sum(velocities ** 2, axis=1))
+                       + np.sum(inertia * np.sum(angular_velocities ** 2, axis=1)))
+
+
 def bulk_figures(t):
-    positions, _, velocities, _, _ = engine.states()
+    positions, _, velocities, angular_velocities, _ = engine.states()
     nodes, _ = engine.surface_state()
     figures = rig.bulk_figures(positions, velocities, masses, nodes)
     if figures["through_sheet"]:
         for line in rig.describe_through(t, positions, velocities, nodes, rig.through_sheet(positions, nodes)):
             print(line, flush=True)
-    return {**figures, "kinetic_energy": 0.5 * float(np.sum(masses * np.sum(velocities ** 2, axis=1)))}
+    return {**figures, "kinetic_energy": kinetic_energy(velocities, angular_velocities)}
 
 
 every = solvers.progress_period(p)

@@ -124,9 +124,9 @@ class Rig:
         nodes (m, 3): the coupled face's node positions."""
         p, top, W = self.p, self.top, self.width
         x, y, z = positions[:, 0], positions[:, 1], positions[:, 2]
-        lying = (top < z) & (z < top + 0.05) & (0.0 < y) & (y < W)
-        over_sheet = lying & (p["clamp_length"] < x) & (x < p["sheet_length"])
-        on_clamp = lying & (x <= p["clamp_length"])
+        lying = (top < z) & (z < top + 0.05) & (0.0 < y)
+        over_sheet = lying & (y < p["sheet_width"]) & (p["clamp_length"] < x) & (x < p["sheet_length"])
+        on_clamp = lying & (y < W) & (x <= p["clamp_length"])
         through = self.through_sheet(positions, nodes)
         return dict(passed_mass=float(masses[z < self.z_flow].sum()), hopper_mass=float(masses[z > self.z_flaps].sum()),
                     sheet_mass=float(masses[over_sheet].sum()), clamp_mass=float(masses[on_clamp].sum()),

@@ -119,6 +119,8 @@ class TriaxialSmallStrain(Case):
                            "value": abs(error), "limit": 0.5 * (0.2567 * p["roughness_fractal_dim"] - 1.0 / 3.0)})
         up, down = phase(series, "loop_loading"), phase(series, "loop_unloading")
         # The loop's start: its hold at ε_a = 0 under the probe's control (dem.py), whose q is the one it returns to.
+        if abs(float(up["axial_strain"][0])) > 1e-12:
+            raise ValueError("the small-strain loop has no hold at ε_a = 0 (a run of an earlier dem.py): run it again")
         loop_start = (float(up["axial_strain"][0]), float(up["q"][0]))
         up = {k: v[1:] for k, v in up.items()}
         residual, eu, qu, ed, qd = loop_residual(loop_start, up, down, e0)
@@ -138,7 +140,7 @@ class TriaxialSmallStrain(Case):
             reference["E0_MPa"] = PAPER_E0_MPA[model]
             relative_error["E0_MPa"] = abs(e0 / 1e6 - PAPER_E0_MPA[model]) / PAPER_E0_MPA[model]
             checks.append({"name": "E0 vs the paper's", "value": relative_error["E0_MPa"], "limit": p["E0_tolerance"]})
-        self.plot(out, p, mid, modulus, e0, loading, unloading, start, (eu, qu, ed, qd))
+        self.plot(out, p, mid, modulus, e0, loading, unloading, start, (eu, qu, ed, qd), loop_start)
         strains = [s for s in (1e-6, 1e-5, 1e-4, 1e-3) if s <= loading["axial_strain"][-1] * (1 + 1e-3)]  # the last: its last tangent
         return {
             "metrics": {"E0_MPa": e0 / 1e6, "coordination_number": c["coordination_number"],
@@ -155,7 +157,7 @@ class TriaxialSmallStrain(Case):
         }
 
     @staticmethod
-    def plot(out, p, mid, modulus, e0, loading, unloading, start, loop):
+    def plot(out, p, mid, modulus, e0, loading, unloading, start, loop, loop_start):
         import matplotlib
         matplotlib.use("Agg")
         import matplotlib.pyplot as plt
@@ -175,8 +177,8 @@ class TriaxialSmallStrain(Case):
         b.set_ylabel("q - q0 [kPa]")
         b.set_title("loading to the probe strain and unloading")
         eu, qu, ed, qd = loop
-        c.plot(eu * 100, qu - start[1], "o-", ms=3, label="loading")
-        c.plot(ed * 100, qd - start[1], "s--", ms=3, label="unloading")
+        c.plot(eu * 100, qu - loop_start[1], "o-", ms=3, label="loading")  # from the loop's hold at ε_a = 0
+        c.plot(ed * 100, qd - loop_start[1], "s--", ms=3, label="unloading")
         c.set_xlabel("axial strain ε_a [%]")
         c.set_ylabel("q - q0 [Pa]")
         c.set_title("small-strain loop")

@@ -304,24 +304,27 @@ struct rcp_bed {
   // Moving wall triangles (plates, turning flaps) have covered `duration` at their nodes' constant velocities: the
   // system's nodes went the same way in the batch (stepBatch), and the next batch starts where they ended.
   void advanceFacets(double duration) {
-    if (!facetsMove) return;
     for (std::size_t k = 0; k < facetNodes.size(); ++k) facetNodes[k] += facetNodeVelocities[k] * duration;
   }
 
   // Sets the velocities of the corners of wall triangles `triangles` (9 values per triangle, or 3 for all corners).
   void setFacetVelocities(const int32_t* triangles, int count, const double* velocities, bool perCorner) {
     initialize();
+    if (count > 0 && (!triangles || !velocities)) throw std::invalid_argument("null triangles or velocities");
+    // Everything checked before anything is set: a refused call leaves the walls' motion as it was.
     for (int k = 0; k < count; ++k) {
       const int t = triangles[k];
       if (t < 0 || t >= facetTriangles())
         throw std::invalid_argument("wall triangle " + std::to_string(t) + " out of range");
-      for (int corner = 0; corner < 3; ++corner)
-        for (int c = 0; c < 3; ++c) {
-          const double v = perCorner ? velocities[9 * k + 3 * corner + c] : velocities[c];
-          if (!std::isfinite(v)) throw std::invalid_argument("a wall velocity is not finite");
-          facetNodeVelocities[9 * static_cast<std::size_t>(t) + 3 * corner + c] = v;
-        }
+      for (int c = 0; c < (perCorner ? 9 : 3); ++c)
+        if (!std::isfinite(velocities[(perCorner ? 9 * k : 0) + c]))
+          throw std::invalid_argument("a wall velocity is not finite");
     }
+    for (int k = 0; k < count; ++k)
+      for (int corner = 0; corner < 3; ++corner)
+        for (int c = 0; c < 3; ++c)
+          facetNodeVelocities[9 * static_cast<std::size_t>(triangles[k]) + 3 * corner + c] =
+              perCorner ? velocities[9 * k + 3 * corner + c] : velocities[c];
     facetsMove = true;
   }
 

@@ -90,11 +90,7 @@ def bulk_figures():
     states = [O.bodies[i].state for i in grains]
     positions, velocities = np.array([tuple(s.pos) for s in states]), np.array([tuple(s.vel) for s in states])
     nodes = np.array([tuple(v) for v in coupling.nodePositions], dtype=float)
-    figures = rig.bulk_figures(positions, velocities, masses, nodes)
-    if figures["through_sheet"]:
-        for line in rig.describe_through(dem.time, positions, velocities, nodes, rig.through_sheet(positions, nodes)):
-            print(line, flush=True)
-    return figures
+    return rig.bulk_figures(dem.time, positions, velocities, masses, nodes)
 
 
 def record():

@@ -168,11 +168,8 @@ def kinetic_energy(velocities, angular_velocities):
 def bulk_figures(t):
     positions, _, velocities, angular_velocities, _ = engine.states()
     nodes, _ = engine.surface_state()
-    figures = rig.bulk_figures(positions, velocities, masses, nodes)
-    if figures["through_sheet"]:
-        for line in rig.describe_through(t, positions, velocities, nodes, rig.through_sheet(positions, nodes)):
-            print(line, flush=True)
-    return {**figures, "kinetic_energy": kinetic_energy(velocities, angular_velocities)}
+    return {**rig.bulk_figures(t, positions, velocities, masses, nodes),
+            "kinetic_energy": kinetic_energy(velocities, angular_velocities)}
 
 
 every = solvers.progress_period(p)

@@ -17,16 +17,18 @@ import numpy as np
 HERE = os.path.dirname(os.path.abspath(__file__))
 sys.path[:0] = [HERE, os.path.join(HERE, "..", "..", "python")]
 import case as steel  # noqa: E402  (flow_rate: the case's own history of the mass flow rate)
+import history_error  # noqa: E402  (history: a run's deflection at the sensor)
 from railcosim import results  # noqa: E402
 
 
 def figures(folder, span=None, fraction=0.9):
     summary = results.read_json(os.path.join(folder, "summary.json"))
     p = summary["parameters"]
-    dem, _, monitor, series = (results.read_json(os.path.join(folder, "dem_info.json")), None,
-                               results.read_csv_columns(os.path.join(folder, "fem", "fem_monitor.csv")),
-                               results.read_dem_series(folder))
-    t, w = monitor["time"], -monitor["uz"]
+    dem, series = results.read_json(os.path.join(folder, "dem_info.json")), results.read_dem_series(folder)
+    found = history_error.history(folder)
+    if found is None:
+        raise SystemExit(f"history_figures.py: {folder} has no finished run (summary.json, fem/fem_monitor.csv)")
+    t, w = found
     lo, hi = span if span else (p["plateau_from_s"], float(t[-1]))
     k = int(np.argmax(w))
     after = (t > t[k]) & (t < t[k] + 0.2)
@@ -57,7 +59,10 @@ def main(argv):
     span = tuple(float(v) for v in args.span.split(",")) if args.span else None
     if span and not (len(span) == 2 and span[0] < span[1]):
         parser.error("--span needs A,B with A < B")
-    rows = [figures(run, span, args.fraction) for run in args.runs]
+    try:
+        rows = [figures(run, span, args.fraction) for run in args.runs]
+    except FileNotFoundError as error:
+        parser.error(str(error))
     for row in rows:
         print(json.dumps(row, indent=1))
     if args.json:

@@ -118,28 +118,23 @@ class Rig:
                   & (y < p["sheet_width"] - 0.5 * d_max))
         return inside & (Z_PARK < z) & (z < np.interp(x, columns, lowest) - 0.25 * d_min)
 
-    def bulk_figures(self, positions, velocities, masses, nodes):
+    def bulk_figures(self, t, positions, velocities, masses, nodes):
         """Masses above the flaps, past the flow plane, on the sheet, on the clamp and below the sheet (parked); the
-        grains through the sheet (through_sheet); the top speed. positions, velocities (n, 3) of the grains, masses (n),
-        nodes (m, 3): the coupled face's node positions."""
+        grains through the sheet (through_sheet), each of them printed (time t, where, how fast, the face's nearest
+        node); the top speed. positions, velocities (n, 3) of the grains, masses (n), nodes (m, 3): the coupled face's
+        node positions."""
         p, top, W = self.p, self.top, self.width
         x, y, z = positions[:, 0], positions[:, 1], positions[:, 2]
         lying = (top < z) & (z < top + 0.05) & (0.0 < y)
         over_sheet = lying & (y < p["sheet_width"]) & (p["clamp_length"] < x) & (x < p["sheet_length"])
         on_clamp = lying & (y < W) & (x <= p["clamp_length"])
         through = self.through_sheet(positions, nodes)
+        for i in np.flatnonzero(through):
+            near = nodes[np.argmin(np.abs(nodes[:, 0] - positions[i, 0]) + np.abs(nodes[:, 1] - positions[i, 1]))]
+            print(f"t={t:.4f} s: grain {i} below the sheet at {np.round(positions[i], 4).tolist()} m, velocity "
+                  f"{np.round(velocities[i], 3).tolist()} m/s; the face's nearest node at "
+                  f"{np.round(near, 4).tolist()} m", flush=True)
         return dict(passed_mass=float(masses[z < self.z_flow].sum()), hopper_mass=float(masses[z > self.z_flaps].sum()),
                     sheet_mass=float(masses[over_sheet].sum()), clamp_mass=float(masses[on_clamp].sum()),
                     parked_mass=float(masses[z <= Z_PARK].sum()), through_sheet=int(np.count_nonzero(through)),
                     max_speed=float(np.sqrt((velocities ** 2).sum(axis=1)).max()))
-
-    @staticmethod
-    def describe_through(t, positions, velocities, nodes, through):
-        """A line per grain of the mask `through` (for the log: where and how fast it passed the sheet)."""
-        lines = []
-        for i in np.flatnonzero(through):
-            near = nodes[np.argmin(np.abs(nodes[:, 0] - positions[i, 0]) + np.abs(nodes[:, 1] - positions[i, 1]))]
-            lines.append(f"t={t:.4f} s: grain {i} below the sheet at {np.round(positions[i], 4).tolist()} m, "
-                         f"velocity {np.round(velocities[i], 3).tolist()} m/s; the face's nearest node at "
-                         f"{np.round(near, 4).tolist()} m")
-        return lines

@@ -193,10 +193,15 @@ print(f"{len(spheres)} spheres (d {sizes[0] * 1e3:.0f}-{sizes[-1] * 1e3:.0f} mm)
 FACES = ("base", "sides", "shoulder", "top")
 
 
+# Contacts on the flat base itself (their normal is the base's to this cosine; the edges' contacts tilt): the Coulomb
+# bound |F_t| <= mu F_n holds for their sum exactly, where the base's edge contacts add normal force sideways.
+FLAT_COSINE = 0.999
+
+
 def face_forces():
-    """{face: force of the ballast on the sleeper [N]}, from each contact's normal."""
+    """{face: force of the ballast on the sleeper [N]}, from each contact's normal; "base_flat": the flat base's."""
     c = s.state.pos
-    sums = {f: np.zeros(3) for f in FACES}
+    sums = {f: np.zeros(3) for f in FACES + ("base_flat",)}
     for i in s.intrs():
         if not i.isReal:
             continue
@@ -209,6 +214,8 @@ def face_forces():
         axis = int(np.argmax((abs(n[0]), abs(n[1]), abs(n[2]))))
         face = ("shoulder", "sides", "base" if i.geom.contactPoint[2] < c[2] else "top")[axis]
         sums[face] += (f[0], f[1], f[2])
+        if face == "base" and abs(n[2]) > FLAT_COSINE:
+            sums["base_flat"] += (f[0], f[1], f[2])
     return sums
 
 
@@ -219,7 +226,7 @@ per_record = max(1, int(round(p["record_every_m"] / (v * O.dt))))
 sample = max(1, per_record // p["samples_per_record"])
 x0 = s.state.pos[0]
 recorder = results.DemRecorder(out)
-acc = {f: np.zeros(3) for f in FACES}
+acc = {f: np.zeros(3) for f in FACES + ("base_flat",)}
 count = 0
 vz_start = s.state.vel[2]
 s.state.vel = Vector3(v, 0, vz_start)
@@ -231,13 +238,14 @@ for k in range(0, steps, sample):
         acc[f] += value
     count += 1
     if (k + sample) % per_record < sample or k + sample >= steps:
-        mean = {f: acc[f] / count for f in FACES}
-        total = sum(mean.values())
+        mean = {f: acc[f] / count for f in acc}
+        total = sum(mean[f] for f in FACES)
         recorder.append(time=O.time - t0, displacement=s.state.pos[0] - x0, lateral_force=-total[0],
                         **{f"{f}_lateral_force": -mean[f][0] for f in FACES},
                         base_normal_force=mean["base"][2], vertical_reaction=total[2],
+                        base_flat_lateral_force=-mean["base_flat"][0], base_flat_normal_force=mean["base_flat"][2],
                         settlement=z0 - s.state.pos[2], sleeper_velocity_z=s.state.vel[2], kinetic_energy=utils.kineticEnergy())
-        acc = {f: np.zeros(3) for f in FACES}
+        acc = {f: np.zeros(3) for f in acc}
         count = 0
         last = recorder.last
         if len(recorder) % max(1, p["progress_every"]) == 0:

@@ -200,6 +200,41 @@ BOOST_AUTO_TEST_CASE(elasto_plastic_history_is_carried_through_the_composition) 
   BOOST_TEST(history.normal.plasticOverlap == direct.plasticOverlap, boost::test_tools::tolerance(1e-12));
 }
 
+BOOST_AUTO_TEST_CASE(elasto_plastic_branch_switch_keeps_the_tangential_force) {
+  // Mindlin's correction releases tangential force as the contact area shrinks, i.e. while the overlap falls. Reloaded
+  // past F_max, the elasto-plastic law leaves its stiffer Hertzian reloading branch for the softer virgin one: k_t
+  // drops while the overlap (and the area) grows, so the stored force must stay whole. Path: load to 60 µm, unload to
+  // 48 µm, shear at rest to 30 % of the Coulomb limit, reload to 72 µm without shear.
+  const ContactLaw law = graniteContact("pohrt_popov_plastic", false);
+  const double peak = 6e-5;
+  const double rate = 1e-6; // only its sign matters here: its dashpot force is ~1e-5 of F_n
+  ContactHistory history{};
+  ContactLawResult r{};
+  auto step = [&](double overlap, double overlapRate, const Vec3& shear) {
+    r = contactLawForces(law, history, ContactKinematics{overlap, overlapRate, normal, shear, {0, 0, 0}});
+    history = r.history;
+  };
+  for (int i = 1; i <= 200; ++i) step(peak * i / 200, rate, {0, 0, 0});
+  for (int i = 1; i <= 40; ++i) step(peak * (1.0 - 0.2 * i / 40), -rate, {0, 0, 0});
+  const double shear = 0.3 * law.params.friction.baseFrictionCoefficient * r.normalForce / r.tangentialStiffness;
+  for (int i = 1; i <= 20; ++i) step(0.8 * peak, 0.0, {shear / 20, 0, 0});
+  const double stored = norm(history.elasticShearForce);
+  BOOST_TEST_REQUIRE(!r.sliding);
+  double lowestStiffnessRatio = 1.0;
+  for (int i = 1; i <= 240; ++i) {
+    const double previous = history.previousTangentialStiffness;
+    step(peak * (0.8 + 0.4 * i / 240), rate, {0, 0, 0});
+    lowestStiffnessRatio = std::min(lowestStiffnessRatio, r.tangentialStiffness / previous);
+    BOOST_TEST(norm(history.elasticShearForce) == stored, boost::test_tools::tolerance(1e-12));
+  }
+  // The path did cross the switch: one step's k_t fell (to about a half: eq. 6's virgin slope against the Hertzian).
+  BOOST_TEST(lowestStiffnessRatio < 0.8);
+  BOOST_TEST(history.normal.maxNormalForce > 0.0);
+  // Unloading from there releases force again, as the area shrinks.
+  for (int i = 1; i <= 20; ++i) step(peak * (1.2 - 0.1 * i / 20), -rate, {0, 0, 0});
+  BOOST_TEST(norm(history.elasticShearForce) < stored);
+}
+
 BOOST_AUTO_TEST_CASE(rolling_resistance_is_the_brof_budget_share) {
   ContactMaterial m{60e9, 0.25, 0.5, 0.7};
   m.rollingFriction = 0.2;

@@ -281,7 +281,8 @@ RAILCOSIM_HOST_DEVICE inline ContactLawResult contactLawForces(const ContactLaw&
       DampingModels{}, c.damping, [&](auto row) { return decltype(row)::coefficient(p, r.tangentialStiffness); });
   const TangentialForceResult tangential = incrementalTangentialForce(
       history.elasticShearForce, k.unitNormal, r.tangentialStiffness, history.previousTangentialStiffness,
-      k.shearIncrement, k.shearVelocity, tangentialDamping, r.frictionCoefficient, r.normalForce, k.overlapRate < 0.0);
+      k.shearIncrement, k.shearVelocity, tangentialDamping, r.frictionCoefficient, r.normalForce,
+      !stiffness.normal.virginLoading);
   r.shearForce = tangential.force;
   r.sliding = tangential.sliding;
   r.rollingResistanceMoment = rollingResistanceMoment(rollingArm(law), r.normalForce);

@@ -132,10 +132,11 @@ struct TangentialForceResult {
 // `tangentialVelocity` (so F opposes both). Steps:
 //  1. the stored force is rotated into the current tangent plane keeping its magnitude (contact frames
 //     turn with the particles);
-//  2. unloading (the overlap falls and k_t < k_t,prev) scales it by k_t/k_t,prev (for Hertz = sqrt(δ/δ_prev),
+//  2. unloading (k_t < k_t,prev where the area may shrink) scales it by k_t/k_t,prev (for Hertz = sqrt(δ/δ_prev),
 //     eq. 3.20) so the spring unloads along the shrinking contact area instead of storing energy it cannot hold.
 //     Only a falling overlap shrinks the area: a k_t that drops while the overlap grows (the elasto-plastic
-//     Pohrt–Popov law passing from its stiffer reloading branch to the virgin one at F_max) keeps the force;
+//     Pohrt–Popov law passing from its stiffer reloading branch to the virgin one at F_max) keeps the force, so
+//     the caller says whether the area may shrink (`areaMayShrink`);
 //  3. F_te ← F_te − k_t Δs;  F_trial = F_te − c_t v_t;
 //  4. if |F_trial| > μ F_n: F_t = μ F_n F_trial/|F_trial| and the elastic history is set to that capped
 //     force (the dashpot does no work while sliding; on reversal the spring unloads from the friction
@@ -143,14 +144,14 @@ struct TangentialForceResult {
 RAILCOSIM_HOST_DEVICE inline TangentialForceResult incrementalTangentialForce(
     const Vec3& elasticForceHistory, const Vec3& unitNormal, double tangentialStiffness,
     double previousTangentialStiffness, const Vec3& tangentialDisplacementIncrement, const Vec3& tangentialVelocity,
-    double tangentialDampingCoefficient, double frictionCoefficient, double normalForce, bool overlapFalling) {
+    double tangentialDampingCoefficient, double frictionCoefficient, double normalForce, bool areaMayShrink) {
   // 1. rotate the history into the current tangent plane, preserving its magnitude
   Vec3 elastic = tangentialPart(elasticForceHistory, unitNormal);
   const double oldMagnitude = norm(elasticForceHistory);
   const double projectedMagnitude = norm(elastic);
   if (projectedMagnitude > 0.0) elastic = elastic * (oldMagnitude / projectedMagnitude);
   // 2. unloading correction
-  if (overlapFalling && previousTangentialStiffness > 0.0 && tangentialStiffness < previousTangentialStiffness) {
+  if (areaMayShrink && previousTangentialStiffness > 0.0 && tangentialStiffness < previousTangentialStiffness) {
     elastic = elastic * (tangentialStiffness / previousTangentialStiffness);
   }
   // 3. spring increment and dashpot (only tangential parts of the kinematic inputs count)

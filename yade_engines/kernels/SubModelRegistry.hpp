@@ -49,6 +49,9 @@ struct NormalEvaluation {
   double force;          // elastic normal force F_ne ≥ 0 [N]
   double stiffness;      // tangent dF/dδ of the active branch [N/m] (dashpot, tangential spring, time step)
   NormalHistory history; // to keep for the next step
+  // True on a branch only a growing overlap travels (the elasto-plastic law's virgin curve, where F_max rises): there
+  // a falling tangent stiffness is the branch's, not a shrinking contact area (HertzMindlin.hpp, Mindlin's correction).
+  bool virginLoading = false;
 };
 
 // ---------------------------------------------------------------------------------------------------
@@ -118,7 +121,8 @@ struct PohrtPopovPlasticNormalModel {
     const PlasticNormalResult plastic =
         pohrtPopovElastoPlasticForce(p.pohrtPopov, overlap, history.maxNormalForce, history.plasticOverlap);
     return NormalEvaluation{plastic.force, plastic.stiffness,
-                            NormalHistory{plastic.maxNormalForce, plastic.plasticOverlap}};
+                            NormalHistory{plastic.maxNormalForce, plastic.plasticOverlap},
+                            plastic.virginLoading};
   }
 };
 

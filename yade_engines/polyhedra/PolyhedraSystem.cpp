@@ -183,6 +183,22 @@ void writeArray(std::ostream& out, const std::vector<T>& array) {
     out.write(reinterpret_cast<const char*>(array.data()), static_cast<std::streamsize>(array.size() * sizeof(T)));
 }
 
+// A fresh list entry of each kind (HostData::allocate's).
+ContactSlot freshEntry(const ContactSlot&) { return ContactSlot{-1, 0, 0.0f, {0, 0, 0}, {0, 0, 0}, 0}; }
+kernels::NormalHistory freshEntry(const kernels::NormalHistory&) { return kernels::NormalHistory{0.0, 0.0}; }
+ContactOutput freshEntry(const ContactOutput&) { return ContactOutput{}; }
+
+// A copy of a per-stone list array (`width` entries per stone) with the entries past each stone's count made fresh.
+template <class T>
+std::vector<T> withFreshTails(const std::vector<T>& array, const std::vector<std::int32_t>& counts, int width) {
+  std::vector<T> canonical = array;
+  if (canonical.size() != counts.size() * static_cast<std::size_t>(width)) return canonical; // an unkept array: empty
+  for (std::size_t i = 0; i < counts.size(); ++i)
+    for (std::size_t k = static_cast<std::size_t>(std::max(counts[i], 0)); k < static_cast<std::size_t>(width); ++k)
+      canonical[i * width + k] = freshEntry(canonical[i * width + k]);
+  return canonical;
+}
+
 template <class T>
 T readValue(std::istream& in, const std::string& what) {
   T value{};
@@ -1035,7 +1051,20 @@ void PolyhedraSystem::writeState(std::ostream& out) const {
   writeValue(out, m.statistics.dangerousRebuilds);
   writeValue(out, m.statistics.coreOverlapFallbacks);
   writeValue(out, m.statistics.meanActiveContacts);
-  visitStateArrays(d, [&](const char*, const auto& array) { writeArray(out, array); });
+  // The lists' entries past each stone's count are left from older lists (double-buffered, swapped at each rebuild):
+  // no step reads them, but their bytes depend on the buffers' history, which a restart does not have. They are
+  // written as fresh entries, so that a state is a function of the dynamics alone (and two runs that agree in every
+  // acting value write the same bytes).
+  visitStateArrays(d, [&](const char* name, const auto& array) {
+    using Record = typename std::decay_t<decltype(array)>::value_type;
+    if constexpr (std::is_same_v<Record, ContactSlot> || std::is_same_v<Record, kernels::NormalHistory> ||
+                  std::is_same_v<Record, ContactOutput>) {
+      const bool pairs = std::string(name).rfind("pair", 0) == 0;
+      writeArray(out, withFreshTails(array, pairs ? d.pairCount : d.wallCount, pairs ? d.maxPairs : d.maxWalls));
+    } else {
+      writeArray(out, array);
+    }
+  });
   if (!out) fail("writeState", "the output stream failed (disk full, closed file?)");
 }
 

@@ -152,17 +152,19 @@ def stress():
 
 def contact_census():
     """Contacts carrying force: member contacts, distinct cluster pairs, and (elasto-plastic law) how many are on the
-    virgin curve (F = F_max) and how many on the Hertzian unloading/reloading branch (F < F_max)."""
-    contacts, pairs, virgin, ratios = 0, set(), 0, []
+    virgin curve (F = F_max) and how many on the Hertzian unloading/reloading branch (F < F_max); how many slide
+    (at the Coulomb limit in the last step)."""
+    contacts, pairs, virgin, ratios, sliding = 0, set(), 0, [], 0
     for i in O.interactions:
         if not i.isReal or i.phys.normalForce.norm() <= 0.0:
             continue
         contacts += 1
+        sliding += bool(i.phys.isSliding)
         pairs.add((O.bodies[i.id1].clumpId, O.bodies[i.id2].clumpId))
         if plastic:
             ratios.append(i.phys.normalForce.norm() / i.phys.maxNormalForce)
             virgin += ratios[-1] >= 1.0 - 1e-9
-    return contacts, len(pairs), virgin, float(np.mean(ratios)) if ratios else 1.0
+    return contacts, len(pairs), virgin, float(np.mean(ratios)) if ratios else 1.0, sliding
 
 
 def strains():
@@ -244,18 +246,18 @@ def settle(goals, tolerance, max_steps):
 def record_state(phase, steps=0, residual=0.0):
     s = stress()
     eps = strains()
-    contacts, pairs, virgin, ratio = contact_census()
+    contacts, pairs, virgin, ratio, sliding = contact_census()
     volume = O.cell.volume
     row = {"phase": phase, "axial_strain": float(eps[2]), "lateral_strain": float(0.5 * (eps[0] + eps[1])),
            "sigma_xx": s[0, 0], "sigma_yy": s[1, 1], "sigma_zz": s[2, 2], "sigma_xy": s[0, 1], "sigma_xz": s[0, 2],
            "sigma_yz": s[1, 2], "force_over_max": ratio, "q": s[2, 2] - 0.5 * (s[0, 0] + s[1, 1]),
            "mean_stress": np.trace(s) / 3.0, "void_ratio": volume / solid - 1.0,
            "coordination_number": 2.0 * contacts / count, "pair_coordination_number": 2.0 * pairs / count,
-           "contacts": contacts, "virgin_contacts": virgin, "unbalanced_force": utils.unbalancedForce(),
+           "contacts": contacts, "virgin_contacts": virgin, "sliding_contacts": sliding, "unbalanced_force": utils.unbalancedForce(),
            "steps": steps, "residual_Pa": residual, "time": O.time, "wall_s": time.monotonic() - started}
     dem.recorder.append(**{k: v for k, v in row.items() if k != "phase"}, phase_code=PHASES.index(phase))
     print(f"{phase:>10} ε_a {row['axial_strain']:.3e}  q {row['q']:10.3f} Pa  p' {row['mean_stress'] / 1e3:8.3f} kPa  "
-          f"Z {row['coordination_number']:.3f}  virgin {virgin}  steps {steps}  residual {residual:.2e} Pa  "
+          f"Z {row['coordination_number']:.3f}  virgin {virgin}  sliding {sliding}  steps {steps}  residual {residual:.2e} Pa  "
           f"{row['wall_s']:.0f} s", flush=True)
     return row
 

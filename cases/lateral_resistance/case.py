@@ -61,12 +61,15 @@ class LateralResistance(Case):
         end = u >= 0.8 * u[-1]
         base_lateral = float(np.mean(series["base_lateral_force"][end]))
         mobilised = base_lateral / float(np.mean(series["base_normal_force"][end]))
-        # The same on the flat base alone, where Coulomb's |F_t| <= mu F_n bounds the sum exactly (dem.py FLAT_COSINE):
-        # the base's edge contacts press sideways with their normal force too, so the whole base may exceed mu.
-        if "base_flat_lateral_force" not in series:
-            raise ValueError(f"{out}: the records have no flat-base forces (a run of an earlier dem.py); run it again")
-        flat_normal = float(np.mean(series["base_flat_normal_force"][end]))
-        flat_mobilised = float(np.mean(series["base_flat_lateral_force"][end])) / flat_normal if flat_normal > 0 else 0.0
+        # Coulomb on the base contacts: their tangential forces' lateral part over their normal forces' magnitudes,
+        # summed over the push. |F_t| <= mu |F_n| per contact, so for the sum, whatever the contacts' normals (an edge
+        # contact's normal force also pushes sideways, which is why the whole base's lateral force may exceed mu).
+        if "base_shear_lateral_force" not in series:
+            raise ValueError(f"{out}: the records have no base shear forces (a run of an earlier dem.py); run it again")
+        base_normal = float(np.sum(series["base_normal_magnitude"]))
+        if not base_normal > 0:
+            raise ValueError(f"{out}: the sleeper's base touched no grain during the push; the bed under it is missing")
+        coulomb = float(np.sum(series["base_shear_lateral_force"])) / base_normal
         total_end = float(np.mean(raw[end]))
         base_share_end = base_lateral / total_end if total_end > 0 else 0.0
         reference = lab_peak(p)
@@ -75,7 +78,7 @@ class LateralResistance(Case):
                    "peak_of_records_N": float(np.max(raw)),
                    "crest_drop_m": p["crest_drop_m"],
                    "mean_vertical_reaction_N": float(np.mean(series["vertical_reaction"])), "weight_and_load_N": weight, "base_friction_mobilised": mobilised,
-                   "flat_base_friction_mobilised": flat_mobilised,
+                   "base_contact_friction_mobilised": coulomb,
                    "base_share_last_fifth": base_share_end,
                    **{f"{f}_share_at_peak": float(share[f][k]) for f in faces},
                    **{f"{f}_share_beyond_2_5mm": v for f, v in shares_late.items()},
@@ -92,10 +95,9 @@ class LateralResistance(Case):
              "limit": p["equilibrium_tolerance"]},
         ]
         if p["sleeper_friction"] > 0:
-            # Coulomb bound: the flat base's contacts carry at most mu times their normal force. Exact per contact
-            # and so for their sum; 2 % for the records' sampling (a contact leaving the flat set between samples).
-            checks.append({"name": "flat base friction mobilised / ballast-sleeper mu",
-                           "value": flat_mobilised / p["sleeper_friction"], "limit": 1.02})
+            # Coulomb bound on the base contacts (above): exact, so the limit is 1 but for rounding.
+            checks.append({"name": "base contacts' tangential / normal force over the ballast-sleeper mu",
+                           "value": coulomb / p["sleeper_friction"], "limit": 1.0 + 1e-9})
         else:
             # Frictionless sleeper: the base's contacts push normal to it, vertically, so its lateral force vanishes
             # but for the contacts at its bottom edges, whose normals tilt: at most 5 % of what the base would carry

@@ -193,29 +193,27 @@ print(f"{len(spheres)} spheres (d {sizes[0] * 1e3:.0f}-{sizes[-1] * 1e3:.0f} mm)
 FACES = ("base", "sides", "shoulder", "top")
 
 
-# Contacts on the flat base itself (their normal is the base's to this cosine; the edges' contacts tilt): the Coulomb
-# bound |F_t| <= mu F_n holds for their sum exactly, where the base's edge contacts add normal force sideways.
-FLAT_COSINE = 0.999
-
-
 def face_forces():
-    """{face: force of the ballast on the sleeper [N]}, from each contact's normal; "base_flat": the flat base's."""
+    """{face: force of the ballast on the sleeper [N]}, from each contact's normal; "base_shear": the base contacts'
+    tangential forces alone, and "base_normal" (x: the sum of their normal forces' magnitudes), for the Coulomb bound
+    |F_t| <= mu |F_n|, which holds per contact and so for any sum."""
     c = s.state.pos
-    sums = {f: np.zeros(3) for f in FACES + ("base_flat",)}
+    sums = {f: np.zeros(3) for f in FACES + ("base_shear", "base_normal")}
     for i in s.intrs():
         if not i.isReal:
             continue
-        f = i.phys.normalForce + i.phys.shearForce  # on body 2
-        if i.id1 == sleeper:
-            f = -f
+        sign = -1.0 if i.id1 == sleeper else 1.0  # the phys forces act on body 2
+        normal, shear = sign * i.phys.normalForce, sign * i.phys.shearForce
+        f = normal + shear
         # The face is the one the contact pushes on: the dominant component of the contact normal (a grain on an edge
         # counts with the face it presses most; a face's own contacts have its normal exactly).
         n = i.geom.normal
         axis = int(np.argmax((abs(n[0]), abs(n[1]), abs(n[2]))))
         face = ("shoulder", "sides", "base" if i.geom.contactPoint[2] < c[2] else "top")[axis]
         sums[face] += (f[0], f[1], f[2])
-        if face == "base" and abs(n[2]) > FLAT_COSINE:
-            sums["base_flat"] += (f[0], f[1], f[2])
+        if face == "base":
+            sums["base_shear"] += (shear[0], shear[1], shear[2])
+            sums["base_normal"][0] += normal.norm()
     return sums
 
 
@@ -226,7 +224,7 @@ per_record = max(1, int(round(p["record_every_m"] / (v * O.dt))))
 sample = max(1, per_record // p["samples_per_record"])
 x0 = s.state.pos[0]
 recorder = results.DemRecorder(out)
-acc = {f: np.zeros(3) for f in FACES + ("base_flat",)}
+acc = {f: np.zeros(3) for f in FACES + ("base_shear", "base_normal")}
 count = 0
 vz_start = s.state.vel[2]
 s.state.vel = Vector3(v, 0, vz_start)
@@ -243,8 +241,9 @@ for k in range(0, steps, sample):
         recorder.append(time=O.time - t0, displacement=s.state.pos[0] - x0, lateral_force=-total[0],
                         **{f"{f}_lateral_force": -mean[f][0] for f in FACES},
                         base_normal_force=mean["base"][2], vertical_reaction=total[2],
-                        base_flat_lateral_force=-mean["base_flat"][0], base_flat_normal_force=mean["base_flat"][2],
-                        settlement=z0 - s.state.pos[2], sleeper_velocity_z=s.state.vel[2], kinetic_energy=utils.kineticEnergy())
+                        base_shear_lateral_force=-mean["base_shear"][0], base_normal_magnitude=mean["base_normal"][0],
+                        settlement=z0 - s.state.pos[2], sleeper_velocity_z=s.state.vel[2],
+                        kinetic_energy=utils.kineticEnergy())
         acc = {f: np.zeros(3) for f in acc}
         count = 0
         last = recorder.last

@@ -253,11 +253,13 @@ def record_state(phase, steps=0, residual=0.0):
            "sigma_yz": s[1, 2], "force_over_max": ratio, "q": s[2, 2] - 0.5 * (s[0, 0] + s[1, 1]),
            "mean_stress": np.trace(s) / 3.0, "void_ratio": volume / solid - 1.0,
            "coordination_number": 2.0 * contacts / count, "pair_coordination_number": 2.0 * pairs / count,
-           "contacts": contacts, "virgin_contacts": virgin, "sliding_contacts": sliding, "unbalanced_force": utils.unbalancedForce(),
+           "contacts": contacts, "virgin_contacts": virgin, "sliding_contacts": sliding,
+           "unbalanced_force": utils.unbalancedForce(),
            "steps": steps, "residual_Pa": residual, "time": O.time, "wall_s": time.monotonic() - started}
     dem.recorder.append(**{k: v for k, v in row.items() if k != "phase"}, phase_code=PHASES.index(phase))
     print(f"{phase:>10} ε_a {row['axial_strain']:.3e}  q {row['q']:10.3f} Pa  p' {row['mean_stress'] / 1e3:8.3f} kPa  "
-          f"Z {row['coordination_number']:.3f}  virgin {virgin}  sliding {sliding}  steps {steps}  residual {residual:.2e} Pa  "
+          f"Z {row['coordination_number']:.3f}  virgin {virgin}  sliding {sliding}  steps {steps}  "
+          f"residual {residual:.2e} Pa  "
           f"{row['wall_s']:.0f} s", flush=True)
     return row
 

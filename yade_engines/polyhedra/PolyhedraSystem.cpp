@@ -188,14 +188,24 @@ ContactSlot freshEntry(const ContactSlot&) { return ContactSlot{-1, 0, 0.0f, {0,
 kernels::NormalHistory freshEntry(const kernels::NormalHistory&) { return kernels::NormalHistory{0.0, 0.0}; }
 ContactOutput freshEntry(const ContactOutput&) { return ContactOutput{}; }
 
-// A copy of a per-stone list array (`width` entries per stone) with the entries past each stone's count made fresh.
+// A copy of a per-stone list array (`width` entries per stone) in the form a state stream holds: the entries past each
+// stone's count made fresh, and an output entry whose slot is not an acting contact (active != 1: apart, or a
+// duplicate wall contact) made fresh too, since outputs are written only by acting contacts and otherwise keep an
+// earlier occupant's. An unkept array (an empty normal history) passes unchanged.
 template <class T>
-std::vector<T> withFreshTails(const std::vector<T>& array, const std::vector<std::int32_t>& counts, int width) {
+std::vector<T> canonicalList(const std::vector<T>& array, const std::vector<std::int32_t>& counts, int width,
+                             const std::vector<ContactSlot>& slots) {
+  if (array.empty()) return array;
+  if (array.size() != counts.size() * static_cast<std::size_t>(width) || slots.size() != array.size())
+    fail("writeState", "a contact list's size differs from stones x list width (internal error)");
   std::vector<T> canonical = array;
-  if (canonical.size() != counts.size() * static_cast<std::size_t>(width)) return canonical; // an unkept array: empty
   for (std::size_t i = 0; i < counts.size(); ++i)
-    for (std::size_t k = static_cast<std::size_t>(std::max(counts[i], 0)); k < static_cast<std::size_t>(width); ++k)
-      canonical[i * width + k] = freshEntry(canonical[i * width + k]);
+    for (std::size_t k = 0; k < static_cast<std::size_t>(width); ++k) {
+      const std::size_t index = i * width + k;
+      const bool past = k >= static_cast<std::size_t>(std::max(counts[i], 0));
+      if (past || (std::is_same_v<T, ContactOutput> && slots[index].active != 1))
+        canonical[index] = freshEntry(canonical[index]);
+    }
   return canonical;
 }
 
@@ -1051,16 +1061,17 @@ void PolyhedraSystem::writeState(std::ostream& out) const {
   writeValue(out, m.statistics.dangerousRebuilds);
   writeValue(out, m.statistics.coreOverlapFallbacks);
   writeValue(out, m.statistics.meanActiveContacts);
-  // The lists' entries past each stone's count are left from older lists (double-buffered, swapped at each rebuild):
-  // no step reads them, but their bytes depend on the buffers' history, which a restart does not have. They are
-  // written as fresh entries, so that a state is a function of the dynamics alone (and two runs that agree in every
-  // acting value write the same bytes).
+  // Some list entries no step reads: those past each stone's count (left from older lists: the slots and normal
+  // histories are double-buffered, swapped at each rebuild) and the outputs of contacts that do not act (outputs are
+  // written by acting contacts only). Their bytes depend on the buffers' history, which a restart does not have, so
+  // they are written as fresh entries (canonicalList): a state is a function of the dynamics alone.
   visitStateArrays(d, [&](const char* name, const auto& array) {
     using Record = typename std::decay_t<decltype(array)>::value_type;
     if constexpr (std::is_same_v<Record, ContactSlot> || std::is_same_v<Record, kernels::NormalHistory> ||
                   std::is_same_v<Record, ContactOutput>) {
       const bool pairs = std::string(name).rfind("pair", 0) == 0;
-      writeArray(out, withFreshTails(array, pairs ? d.pairCount : d.wallCount, pairs ? d.maxPairs : d.maxWalls));
+      writeArray(out, canonicalList(array, pairs ? d.pairCount : d.wallCount, pairs ? d.maxPairs : d.maxWalls,
+                                    pairs ? d.pairSlots : d.wallSlots));
     } else {
       writeArray(out, array);
     }

@@ -102,8 +102,9 @@ def window_recorder(bed, out, restart):
     if not (restart and restart["resume_from"]):
         return results.DemRecorder(out), 0, None
     saved = pickle.loads(bed.resumed_state())  # puts the checkpoint's files back first
-    first = int(bed.figures()["windows"])
-    print(f"resumed from {restart['resume_from']} at t={bed.figures()['time']:.4f} s, window {first}", flush=True)
+    figures = bed.figures()
+    first = int(figures["windows"])
+    print(f"resumed from {restart['resume_from']} at t={figures['time']:.4f} s, window {first}", flush=True)
     return results.DemRecorder(out, resume_windows=saved["windows_recorded"]), first, saved
 
 

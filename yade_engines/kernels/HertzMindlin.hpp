@@ -180,7 +180,7 @@ RAILCOSIM_HOST_DEVICE inline TangentialForceResult mindlinTangentialForce(
   const double damping = viscousDampingCoefficient(p.dampingRatio, p.effectiveMass, stiffness);
   return incrementalTangentialForce(elasticForceHistory, unitNormal, stiffness, previousStiffness,
                                     tangentialDisplacementIncrement, tangentialVelocity, damping, frictionCoefficient,
-                                    normalForce, overlap < previousOverlap);
+                                    normalForce, true); // Hertz has one branch: k_t falls only with the overlap
 }
 
 // ---------------------------------------------------------------------------------------------------

@@ -1,6 +1,8 @@
 # DEM run of the small-strain triaxial case (DEM only): clusters of three ballast shapes of the shape library in a
-# periodic cell at void ratio 0.70, confined isotropically by a stress servo on the cell, then probed axially in
-# quasi-static strain steps to 0.1 % and unloaded (Tolomeo & McDowell 2022 §3). Run by `railcosim run` as:
+# periodic cell at void ratio 0.70, confined isotropically by a stress servo on the cell (or, with boundary =
+# "platens", laterally by the servo and axially between two frictionless platens of the paper's linear contacts), then
+# probed axially in quasi-static strain steps to 0.1 % and unloaded (Tolomeo & McDowell 2022 §3). Run by
+# `railcosim run` as:
 # railcosim yade dem.py PARAMETERS.json ENDPOINT OUTDIR (DEM-only case: the endpoint is not used)
 import math
 import os
@@ -23,6 +25,7 @@ MODELS = {"hertz": (0.0, False), "pohrt_popov": (p["roughness_rms"], False),
           "pohrt_popov_plastic": (p["roughness_rms"], True)}
 rms, plastic = MODELS[p["normal_model"]]
 pressure = 1e3 * p["confining_pressure_kPa"]
+platens = p["boundary"] == "platens"
 
 
 # 1. Material (Tolomeo & McDowell 2022 Table 1, §2.3): granite E = 60 GPa, ν = 0.25, μ = 0.7; the normal law is the
@@ -36,13 +39,21 @@ def ballast_material(friction, roughness, plastic_unloading):
                       roughnessFractalDim=p["roughness_fractal_dim"], plasticUnloading=plastic_unloading)
 
 
-def engines(servoed=True):
+def engines(servoed=True, with_platens=False):
+    """The engines; with_platens adds the platens' boxes and their contacts: linear springs of platen_stiffness,
+    frictionless (Ip2_FrictMat_FrictMat_FrictPhys with a constant k_n, Cundall-Strack law; the paper's platen-grain
+    contacts, §2.4). The boxes span the periodic cell laterally many times over (allowBiggerThanPeriod)."""
+    box = with_platens
     O.engines = [
         ForceResetter(),
-        InsertionSortCollider([Bo1_Sphere_Aabb()], verletDist=-0.1, allowBiggerThanPeriod=False),
-        InteractionLoop([Ig2_Sphere_Sphere_ScGeom()],
-                        [Ip2_BallastMat_BallastMat_BallastPhys(fixedEffectiveRadius=p["contact_radius"])],
-                        [Law2_ScGeom_BallastPhys_Ballast()]),
+        InsertionSortCollider([Bo1_Sphere_Aabb()] + ([Bo1_Box_Aabb()] if box else []), verletDist=-0.1,
+                              allowBiggerThanPeriod=box),
+        InteractionLoop([Ig2_Sphere_Sphere_ScGeom()] + ([Ig2_Box_Sphere_ScGeom()] if box else []),
+                        [Ip2_BallastMat_BallastMat_BallastPhys(fixedEffectiveRadius=p["contact_radius"])] +
+                        ([Ip2_FrictMat_FrictMat_FrictPhys(kn=MatchMaker(algo="val", val=p["platen_stiffness"]),
+                                                          ks=MatchMaker(algo="val", val=p["platen_stiffness"]))]
+                         if box else []),
+                        [Law2_ScGeom_BallastPhys_Ballast()] + ([Law2_ScGeom_FrictPhys_CundallStrack()] if box else [])),
     ] + ([PyRunner(iterPeriod=p["servo_steps"], command="servo_step()")] if servoed else []) + [
         NewtonIntegrator(damping=p["local_damping"], gravity=(0, 0, 0)),
     ]
@@ -60,7 +71,9 @@ def cell_size():
 #    depends only on the parameters below, so it is kept in a cache and reused by every normal law and pressure.
 SAMPLE_PARAMETERS = ("clusters", "cluster_shapes", "cluster_level", "void_ratio", "particle_density", "particle_young",
                      "particle_poisson", "preparation_time_s", "dem_dt", "local_damping", "seed")
-cache = bedcache.path("triaxial_small_strain", {k: p[k] for k in SAMPLE_PARAMETERS}, name="sample",
+# specimen_height_m joins the key only where it is set, so that the cubic samples keep their keys
+tall = {"specimen_height_m": p["specimen_height_m"]} if p["specimen_height_m"] > 0 else {}
+cache = bedcache.path("triaxial_small_strain", {**{k: p[k] for k in SAMPLE_PARAMETERS}, **tall}, name="sample",
                       fallback=os.path.join(out, "cache"))
 
 
@@ -74,27 +87,30 @@ def prepare_sample():
         stones += ballast_clusters.sampleBallastStones(one, rng, 1e-12, level=p["cluster_level"],
                                                        density=p["particle_density"])
     solid = sum(s["mass"] for s in stones) / p["particle_density"]
-    side = (solid / 0.12) ** (1.0 / 3.0)
+    volume = solid * (1.0 + p["void_ratio"])  # at the target void ratio; a square prism of the given height
+    aspect = p["specimen_height_m"] ** 1.5 / math.sqrt(volume) if p["specimen_height_m"] > 0 else 1.0
+    side = (solid / 0.12 / aspect) ** (1.0 / 3.0) * np.array([1.0, 1.0, aspect])
     reaches = np.array([s["enclosingRadius"] for s in stones])
     centres = np.zeros((len(stones), 3))
     for n, k in enumerate(np.argsort(-reaches)):  # random sequential placement of the enclosing spheres (periodic)
         for attempt in range(20000):
-            c = rng.uniform(0.0, side, 3)
+            c = rng.uniform(0.0, 1.0, 3) * side
             d = centres[:n] - c
             d -= side * np.round(d / side)
             if n == 0 or np.all(np.linalg.norm(d, axis=1) >= reaches[np.argsort(-reaches)[:n]] + reaches[k]):
                 centres[n] = c
                 break
         else:
-            raise RuntimeError(f"triaxial sample: could not place cluster {n} of {len(stones)} in a cell of {side:.3f} m")
+            raise RuntimeError(f"triaxial sample: could not place cluster {n} of {len(stones)} in a cell of "
+                               f"{side[0]:.3f} x {side[1]:.3f} x {side[2]:.3f} m")
     order = np.argsort(-reaches)
     O.periodic = True
-    O.cell.hSize = Matrix3(side, 0, 0, 0, side, 0, 0, 0, side)
+    O.cell.hSize = Matrix3(side[0], 0, 0, 0, side[1], 0, 0, 0, side[2])
     material = O.materials.append(ballast_material(0.0, 0.0, False))
     ids = [pack_ballast.addClusterStone(stones[k], centres[n], O.materials[material]) for n, k in enumerate(order)]
     engines(servoed=False)
-    target = (solid * (1.0 + p["void_ratio"])) ** (1.0 / 3.0)
-    rate = math.log(target / side) / p["preparation_time_s"]
+    target = (volume / aspect) ** (1.0 / 3.0)
+    rate = math.log(target / side[0]) / p["preparation_time_s"]
     O.cell.velGrad = Matrix3(rate, 0, 0, 0, rate, 0, 0, 0, rate)
     steps = int(round(p["preparation_time_s"] / O.dt))
     O.run(steps - 1, True)
@@ -123,8 +139,26 @@ with np.load(cache) as saved:
     members, clumps, size, solid = saved["members"], saved["clumps"], saved["size"], float(saved["solid"])
 
 # 3. The scene of this run: the sample with the run's normal law and μ = confinement_friction, at rest, stress-free.
+#    With platens the sample's periodicity across z is cut: each cluster is brought into one period (by its members'
+#    mean height), the platens' faces touch the lowest and the highest sphere, and the cell is three specimens tall,
+#    so that no grain meets the other platen through the empty third.
+def cut_between_platens(members, height):
+    members = members.copy()
+    for old in np.unique(members[:, 0]):
+        mine = members[:, 0] == old
+        members[mine, 3] -= height * math.floor(float(np.mean(members[mine, 3])) / height)
+    bottom = float(np.min(members[:, 3] - members[:, 4]))
+    top = float(np.max(members[:, 3] + members[:, 4]))
+    members[:, 3] += (top - bottom) - bottom  # the specimen in the cell's middle third
+    return members, top - bottom
+
+
 O.periodic = True
-O.cell.hSize = Matrix3(size[0], 0, 0, 0, size[1], 0, 0, 0, size[2])
+cell_height = size[2]
+if platens:
+    members, specimen_height = cut_between_platens(members, size[2])
+    cell_height = 3.0 * specimen_height
+O.cell.hSize = Matrix3(size[0], 0, 0, 0, size[1], 0, 0, 0, cell_height)
 material = O.materials.append(ballast_material(p["confinement_friction"], rms, plastic))
 clump_ids = []
 for old, mass, i1, i2, i3 in clumps:
@@ -137,17 +171,89 @@ for old, mass, i1, i2, i3 in clumps:
     moments[np.argsort(mine)] = np.sort([i1, i2, i3])
     state.mass, state.inertia = float(mass), Vector3(*moments)
     clump_ids.append(cid)
-engines()
+platen_ids = []
+if platens:
+    # Frictionless steel platens (the paper's, §2.4): boxes 10 mm thick whose faces touch the specimen's ends; they
+    # span the cell ten times over laterally, so every grain's image meets them however the cell strains.
+    steel = O.materials.append(FrictMat(young=p["particle_young"], poisson=p["particle_poisson"], density=7800.0,
+                                        frictionAngle=0.0))
+    half = Vector3(10.0 * size[0], 10.0 * size[1], 0.005)
+    for face, side in ((specimen_height, -1.0), (2.0 * specimen_height, 1.0)):
+        platen_ids.append(O.bodies.append(utils.box((0.5 * size[0], 0.5 * size[1], face + side * 0.005), half,
+                                                    fixed=True, material=O.materials[steel])))
+engines(with_platens=platens)
 count = len(clump_ids)
-print(f"{count} clusters ({len(members)} spheres), cell {size[0]:.4f} m, e = {np.prod(size) / solid - 1.0:.4f}, "
-      f"normal law {p['normal_model']}, dt {O.dt:.2e} s (P-wave step {utils.PWaveTimeStep():.2e} s)", flush=True)
+print(f"{count} clusters ({len(members)} spheres), cell {size[0]:.4f} x {size[1]:.4f} x {size[2]:.4f} m, "
+      f"e = {np.prod(size) / solid - 1.0:.4f}, normal law {p['normal_model']}, boundary {p['boundary']}, "
+      f"dt {O.dt:.2e} s (P-wave step {utils.PWaveTimeStep():.2e} s)", flush=True)
 
 
 # 4. Measurements. The stress is the paper's (Christoffersen et al.): σ = (1/V) Σ f ⊗ l over all contacts, l the branch
 #    vector between the clusters' centroids (utils.getStress, positive in tension; here compression positive).
-def stress():
-    s = utils.getStress()
-    return np.array([[-s[i, j] for j in range(3)] for i in range(3)])
+#    With platens the specimen is the platens' gap times the cell's cross-section; its axial stress is the platens'
+#    mean force over that section (the boundary's measure, equal to the branch-vector average in equilibrium: the
+#    frictionless platens' contacts carry axial force only), and the platens' contacts are left out of the sum.
+def platen_gap():
+    return float(O.bodies[platen_ids[1]].state.pos[2] - O.bodies[platen_ids[0]].state.pos[2]) - 0.01
+
+
+def dims():
+    """The specimen's edges [m]: the cell's, or its width and the platens' gap."""
+    d = cell_size()
+    if platens:
+        d[2] = platen_gap()
+    return d
+
+
+def specimen_volume():
+    return float(np.prod(dims())) if platens else O.cell.volume  # the sheared cell's volume is its determinant
+
+
+def is_platen_contact(i):
+    return i.id1 in platen_ids or i.id2 in platen_ids
+
+
+def platen_terms(volume):
+    """With platens: (the terms getStress gives the platens' contacts, with branch vectors to the boxes' centres; the
+    Love-Weber terms of those contacts, f on the grain ⊗ (contact point - the cluster's centroid)), each / volume,
+    tension positive as getStress."""
+    h = O.cell.hSize
+    given, love_weber = np.zeros((3, 3)), np.zeros((3, 3))
+    for pid in platen_ids:
+        for i in O.interactions.withBody(pid):
+            if not i.isReal:
+                continue
+            a, b = (O.bodies[O.bodies[k].clumpId] if O.bodies[k].isClumpMember else O.bodies[k] for k in (i.id1, i.id2))
+            force = np.array(i.phys.normalForce + i.phys.shearForce)  # YADE's phys force acts on id2, -force on id1
+            shift = np.array(h * Vector3(*i.cellDist))
+            given += np.outer(force, np.array(a.state.pos - b.state.pos) - shift)
+            grain, on_grain = (i.id2, force) if i.id1 == pid else (i.id1, -force)
+            member = O.bodies[grain]
+            centre = np.array(O.bodies[member.clumpId].state.pos)
+            # the force acts on the platen's face (the specimen's boundary, which defines its volume), not at the
+            # contact point halfway into the soft contact's overlap: the two differ by δ/H, about 1e-3
+            point = np.array(i.geom.contactPoint)
+            point[2] = O.bodies[pid].state.pos[2] + (0.005 if pid == platen_ids[0] else -0.005)
+            # the contact point lies in the frame of id1; the grain's image is shifted when it is id2
+            offset = centre + (shift if grain == i.id2 else 0.0)
+            love_weber += np.outer(on_grain, point - offset)
+    return given / volume, love_weber / volume
+
+
+def stress(branch=False):
+    """The specimen's stress tensor, compression positive. With platens the axial stress is the platens' mean force
+    over the section, or (branch = True) the Love-Weber average over the grains with the platens' contacts' branch
+    vectors to their contact points: the two agree in equilibrium (a check of case.py)."""
+    if not platens:
+        return -np.array(utils.getStress())
+    volume = specimen_volume()
+    given, love_weber = platen_terms(volume)
+    s = np.array(utils.getStress(volume)) - given
+    if branch:
+        return -(s + love_weber)
+    area = float(np.prod(cell_size()[:2]))
+    s[2, 2] = 0.5 * (O.forces.f(platen_ids[0])[2] - O.forces.f(platen_ids[1])[2]) / area  # tension positive
+    return -s
 
 
 def contact_census():
@@ -156,7 +262,7 @@ def contact_census():
     (at the Coulomb limit in the last step)."""
     contacts, pairs, virgin, ratios, sliding = 0, set(), 0, [], 0
     for i in O.interactions:
-        if not i.isReal or i.phys.normalForce.norm() <= 0.0:
+        if not i.isReal or i.phys.normalForce.norm() <= 0.0 or is_platen_contact(i):
             continue
         contacts += 1
         sliding += bool(i.phys.isSliding)
@@ -168,8 +274,8 @@ def contact_census():
 
 
 def strains():
-    s = cell_size()
-    return (reference_size - s) / reference_size  # compression positive, from the confined state
+    s = dims()
+    return (reference_size - s) / reference_size  # compression positive, from the confined state (the paper's ΔH/H0)
 
 
 # 5. Servo on the cell (the stress boundary: a periodic cell has no membrane and no platens), a PyRunner every
@@ -183,16 +289,16 @@ def affine_modulus():
     h = O.cell.hSize
     m = np.zeros(3)
     for i in O.interactions:
-        if not i.isReal:
+        if not i.isReal or is_platen_contact(i):
             continue
         a, b = O.bodies[O.bodies[i.id1].clumpId], O.bodies[O.bodies[i.id2].clumpId]
         l = np.array(b.state.pos - a.state.pos + h * Vector3(*i.cellDist))
         n = np.array(i.geom.normal)
         m += (i.phys.kn * n ** 2 + i.phys.ks * (1.0 - n ** 2)) * l ** 2
-    return np.maximum(m / O.cell.volume, p["servo_modulus_floor_over_p"] * pressure)
+    return np.maximum(m / specimen_volume(), p["servo_modulus_floor_over_p"] * pressure)
 
 
-reference_size = cell_size()
+reference_size = dims()
 # goals: a stress [Pa] per axis, or None for the axis on a strain schedule: from strain_from at iteration
 # start_iter to strain_to at end_iter, linearly; stress goals may ramp from goal_from over the same iterations.
 servo = {"modulus": affine_modulus(), "goals": [0.0, 0.0, 0.0], "goal_from": None, "strain_from": 0.0,
@@ -211,18 +317,26 @@ def servo_step():
         goal = servo["goals"][axis]
         if goal is None:
             target = servo["strain_from"] + (servo["strain_to"] - servo["strain_from"]) * fraction
-            rates.append(-(target - eps[axis]) * reference_size[axis] / (cell_size()[axis] * n * O.dt))
+            rates.append(-(target - eps[axis]) * reference_size[axis] / (dims()[axis] * n * O.dt))
         else:
             if servo["goal_from"] is not None:
                 goal = servo["goal_from"] + (goal - servo["goal_from"]) * fraction
             strain = p["servo_gain"] * (s[axis, axis] - goal) / servo["modulus"][axis]
             rates.append(max(-p["servo_max_rate"], min(p["servo_max_rate"], strain / (n * O.dt))))
-    # Shear stresses to zero (frictionless platens and membrane carry none): ε̇_ij = gain σ_ij/(2G n dt), 2G taken
-    # as the mean affine M (above the affine 2G of a contact network: stable).
     g = np.zeros((3, 3))
-    for i, j in ((0, 1), (0, 2), (1, 2)):
-        g[i, j] = g[j, i] = max(-p["servo_max_rate"], min(p["servo_max_rate"], p["servo_gain"] * s[i, j] /
-                                                           (np.mean(servo["modulus"]) * n * O.dt)))
+    if platens:
+        # The axial strain rate moves the two platens symmetrically (the cell keeps its height); the cell stays
+        # rectangular (boxes need an unsheared cell), so the shear stresses are left to the frictionless platens.
+        speed = 0.5 * rates[2] * dims()[2]
+        O.bodies[platen_ids[0]].state.vel = Vector3(0, 0, -speed)
+        O.bodies[platen_ids[1]].state.vel = Vector3(0, 0, speed)
+        rates[2] = 0.0
+    else:
+        # Shear stresses to zero (frictionless platens and membrane carry none): ε̇_ij = gain σ_ij/(2G n dt), 2G
+        # taken as the mean affine M (above the affine 2G of a contact network: stable).
+        for i, j in ((0, 1), (0, 2), (1, 2)):
+            g[i, j] = g[j, i] = max(-p["servo_max_rate"], min(p["servo_max_rate"], p["servo_gain"] * s[i, j] /
+                                                               (np.mean(servo["modulus"]) * n * O.dt)))
     O.cell.velGrad = Matrix3(rates[0], g[0, 1], g[0, 2], g[1, 0], rates[1], g[1, 2], g[2, 0], g[2, 1], rates[2])
 
 
@@ -237,7 +351,7 @@ def settle(goals, tolerance, max_steps):
         now = stress()
         history.append(now)
         error = max([abs(now[a, a] - goals[a]) for a in range(3) if goals[a] is not None] +
-                    [abs(now[0, 1]), abs(now[0, 2]), abs(now[1, 2])])
+                    ([] if platens else [abs(now[0, 1]), abs(now[0, 2]), abs(now[1, 2])]))
         drift = max(np.max(np.abs(now - h)) for h in history[-3:-1])
         if (len(history) > 2 and error < tolerance and drift < tolerance) or taken >= max_steps:
             return taken, max(error, drift)
@@ -247,13 +361,15 @@ def record_state(phase, steps=0, residual=0.0):
     s = stress()
     eps = strains()
     contacts, pairs, virgin, ratio, sliding = contact_census()
-    volume = O.cell.volume
+    volume = specimen_volume()
     row = {"phase": phase, "axial_strain": float(eps[2]), "lateral_strain": float(0.5 * (eps[0] + eps[1])),
            "sigma_xx": s[0, 0], "sigma_yy": s[1, 1], "sigma_zz": s[2, 2], "sigma_xy": s[0, 1], "sigma_xz": s[0, 2],
            "sigma_yz": s[1, 2], "force_over_max": ratio, "q": s[2, 2] - 0.5 * (s[0, 0] + s[1, 1]),
-           "mean_stress": np.trace(s) / 3.0, "void_ratio": volume / solid - 1.0,
+           "sigma_zz_branch": stress(branch=True)[2, 2] if platens else s[2, 2],
+           "mean_stress": np.trace(s) / 3.0, "void_ratio": volume / solid - 1.0, "specimen_height": dims()[2],
            "coordination_number": 2.0 * contacts / count, "pair_coordination_number": 2.0 * pairs / count,
            "contacts": contacts, "virgin_contacts": virgin, "sliding_contacts": sliding,
+           "platen_contacts": sum(1 for k in platen_ids for i in O.interactions.withBody(k) if i.isReal) / 2.0,
            "unbalanced_force": utils.unbalancedForce(),
            "steps": steps, "residual_Pa": residual, "time": O.time, "wall_s": time.monotonic() - started}
     dem.recorder.append(**{k: v for k, v in row.items() if k != "phase"}, phase_code=PHASES.index(phase))
@@ -332,7 +448,7 @@ def probe(phase, levels, goal):
 # 6. Confinement to p, then the probe: loading to probe_strain, unloading until q is back to its confined value.
 steps, residual = confine(pressure)
 confined = record_state("confined", steps, residual)
-reference_size = cell_size()
+reference_size = dims()
 O.saveTmp("confined")
 q0 = confined["q"]
 levels = strain_levels(p["first_strain"], p["probe_strain"], p["levels_per_decade"])
@@ -348,7 +464,7 @@ for target in unload_levels:
 #    elasto-plastic one), then (elastic laws) the same sample confined at pressure_factor × p for the E0 scaling
 #    with p.
 O.loadTmp("confined")
-reference_size = cell_size()
+reference_size = dims()
 loop_levels = strain_levels(p["first_strain"], p["loop_strain"], p["levels_per_decade"])
 # The loop starts with a hold at ε_a = 0 under the probe's control (lateral stresses servo-held, axial strain
 # prescribed): switching from the all-stress confinement to it moves q by a few Pa before any strain (7 Pa of the
@@ -356,12 +472,14 @@ loop_levels = strain_levels(p["first_strain"], p["loop_strain"], p["levels_per_d
 probe("loop_loading", [0.0] + loop_levels, pressure)
 probe("loop_unloading", [p["loop_strain"] - d for d in strain_levels(p["first_strain"], p["loop_strain"],
                                                                       p["levels_per_decade"])[:-1]] + [0.0], pressure)
-if p["pressure_factor"] > 0 and not plastic:  # the scaling check is for elastic networks only (case.py)
+# The scaling check is for elastic networks, and for the packing's own strain only: the platens' linear contacts add
+# a compliance that does not scale with p (case.py)
+if p["pressure_factor"] > 0 and not plastic and not platens:
     O.loadTmp("confined")
-    reference_size = cell_size()
+    reference_size = dims()
     steps, residual = confine(p["pressure_factor"] * pressure)
     record_state("confined_2", steps, residual)
-    reference_size = cell_size()
+    reference_size = dims()
     probe("probe_2", strain_levels(p["first_strain"], p["scaling_strain"], p["levels_per_decade"]),
           p["pressure_factor"] * pressure)
 

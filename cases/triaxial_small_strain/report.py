@@ -21,9 +21,10 @@ def main(figure, runs):
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
     fig, (a, b) = plt.subplots(1, 2, figsize=(11, 4))
-    print("| run | normal law | clusters | dt [s] | E0 [MPa] | paper E0 [MPa] | Z | Z pairs | e | E/E0 at ε_a = 1e-5, 1e-4, 1e-3 "
+    print("| run | normal law | boundary (height) | clusters | dt [s] | E0 [MPa] | paper E0 [MPa] | Z | Z pairs | e "
+          "| E/E0 at ε_a = 1e-5, 1e-4, 1e-3 "
           "| unloading E [MPa] | ε_a at q0 after unloading [%] | DEM wall [s] |")
-    print("|---|---|---|---|---|---|---|---|---|---|---|---|---|")
+    print("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|")
     top = 0.0
     for k, (label, out) in enumerate(runs):
         summary = json.load(open(os.path.join(out, "summary.json")))
@@ -55,7 +56,9 @@ def main(figure, runs):
         else:
             residual = float("nan")
         top = max(top, m["E0_MPa"])
-        print(f"| {label} | {p['normal_model']} | {m['clusters']} | {p['dem_dt']:g} | {m['E0_MPa']:.0f} | "
+        boundary = p.get("boundary", "periodic")
+        height = f"{boundary} ({m['specimen_height_m']:.3f} m)" if "specimen_height_m" in m else boundary
+        print(f"| {label} | {p['normal_model']} | {height} | {m['clusters']} | {p['dem_dt']:g} | {m['E0_MPa']:.0f} | "
               f"{paper if paper else '-'} | {m['coordination_number']:.2f} | {m['pair_coordination_number']:.2f} | "
               f"{m['void_ratio']:.3f} | {ratios} | {unload_e / 1e6:.0f} | {residual * 100:.3f} | "
               f"{m['dem_wall_time_s']:.0f} |")

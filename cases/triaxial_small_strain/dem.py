@@ -171,16 +171,17 @@ for old, mass, i1, i2, i3 in clumps:
     moments[np.argsort(mine)] = np.sort([i1, i2, i3])
     state.mass, state.inertia = float(mass), Vector3(*moments)
     clump_ids.append(cid)
-platen_ids = []
+platen_ids = []  # bottom, top
+PLATEN_HALF_THICKNESS = 0.005  # m
 if platens:
     # Frictionless steel platens (the paper's, §2.4): boxes 10 mm thick whose faces touch the specimen's ends; they
     # span the cell ten times over laterally, so every grain's image meets them however the cell strains.
     steel = O.materials.append(FrictMat(young=p["particle_young"], poisson=p["particle_poisson"], density=7800.0,
                                         frictionAngle=0.0))
-    half = Vector3(10.0 * size[0], 10.0 * size[1], 0.005)
+    half = Vector3(10.0 * size[0], 10.0 * size[1], PLATEN_HALF_THICKNESS)
     for face, side in ((specimen_height, -1.0), (2.0 * specimen_height, 1.0)):
-        platen_ids.append(O.bodies.append(utils.box((0.5 * size[0], 0.5 * size[1], face + side * 0.005), half,
-                                                    fixed=True, material=O.materials[steel])))
+        centre = (0.5 * size[0], 0.5 * size[1], face + side * PLATEN_HALF_THICKNESS)
+        platen_ids.append(O.bodies.append(utils.box(centre, half, fixed=True, material=O.materials[steel])))
 engines(with_platens=platens)
 count = len(clump_ids)
 print(f"{count} clusters ({len(members)} spheres), cell {size[0]:.4f} x {size[1]:.4f} x {size[2]:.4f} m, "
@@ -193,8 +194,14 @@ print(f"{count} clusters ({len(members)} spheres), cell {size[0]:.4f} x {size[1]
 #    With platens the specimen is the platens' gap times the cell's cross-section; its axial stress is the platens'
 #    mean force over that section (the boundary's measure, equal to the branch-vector average in equilibrium: the
 #    frictionless platens' contacts carry axial force only), and the platens' contacts are left out of the sum.
+def platen_face(pid):
+    """Height of a platen's face towards the specimen [m]."""
+    return float(O.bodies[pid].state.pos[2]) + (PLATEN_HALF_THICKNESS if pid == platen_ids[0] else
+                                                -PLATEN_HALF_THICKNESS)
+
+
 def platen_gap():
-    return float(O.bodies[platen_ids[1]].state.pos[2] - O.bodies[platen_ids[0]].state.pos[2]) - 0.01
+    return platen_face(platen_ids[1]) - platen_face(platen_ids[0])
 
 
 def dims():
@@ -233,7 +240,7 @@ def platen_terms(volume):
             # the force acts on the platen's face (the specimen's boundary, which defines its volume), not at the
             # contact point halfway into the soft contact's overlap: the two differ by δ/H, about 1e-3
             point = np.array(i.geom.contactPoint)
-            point[2] = O.bodies[pid].state.pos[2] + (0.005 if pid == platen_ids[0] else -0.005)
+            point[2] = platen_face(pid)
             # the contact point lies in the frame of id1; the grain's image is shifted when it is id2
             offset = centre + (shift if grain == i.id2 else 0.0)
             love_weber += np.outer(on_grain, point - offset)

@@ -64,17 +64,53 @@ def cell_size():
     return np.array([O.cell.hSize[i, i] for i in range(3)])
 
 
+# The platens (boundary = "platens"): frictionless steel (the paper's, §2.4), boxes 10 mm thick whose faces bound the
+# specimen, in a periodic cell three specimens tall, so that no grain meets the other platen through the empty third.
+# They span the cell ten times over laterally, so every grain's image meets them however the cell strains.
+platen_ids = []  # bottom, top
+PLATEN_HALF_THICKNESS = 0.005  # m
+
+
+def add_platens(size, gap):
+    """The two platens, their faces at z = gap and 2 gap in a cell of size[0] x size[1] x 3 gap."""
+    O.cell.hSize = Matrix3(size[0], 0, 0, 0, size[1], 0, 0, 0, 3.0 * gap)
+    steel = O.materials.append(FrictMat(young=p["particle_young"], poisson=p["particle_poisson"], density=7800.0,
+                                        frictionAngle=0.0))
+    half = Vector3(10.0 * size[0], 10.0 * size[1], PLATEN_HALF_THICKNESS)
+    for face, side in ((gap, -1.0), (2.0 * gap, 1.0)):
+        centre = (0.5 * size[0], 0.5 * size[1], face + side * PLATEN_HALF_THICKNESS)
+        platen_ids.append(O.bodies.append(utils.box(centre, half, fixed=True, material=O.materials[steel])))
+
+
+def platen_face(pid):
+    """Height of a platen's face towards the specimen [m]."""
+    return float(O.bodies[pid].state.pos[2]) + (PLATEN_HALF_THICKNESS if pid == platen_ids[0] else
+                                                -PLATEN_HALF_THICKNESS)
+
+
+def platen_gap():
+    return platen_face(platen_ids[1]) - platen_face(platen_ids[0])
+
+
+def is_platen_contact(i):
+    return i.id1 in platen_ids or i.id2 in platen_ids
+
+
 # 2. The sample, the same for the three normal laws (the paper's design): clusters of three library shapes in equal
 #    numbers, sizes from the middle of the EN 13450 band, random orientations, placed without overlap in a periodic
-#    cell at a solid fraction of 0.12 (the enclosing spheres fill 0.28), then shrunk isotropically with frictionless Hertz contacts to the target void
-#    ratio and left to come to rest at that volume: stress-free (the paper expands the clumps to e, stress-free). It
-#    depends only on the parameters below, so it is kept in a cache and reused by every normal law and pressure.
+#    cell (a square prism of specimen_height_m at the target, or a cube) at a solid fraction of 0.12 (the enclosing
+#    spheres fill 0.28), then shrunk isotropically with frictionless Hertz contacts to the target void ratio and left
+#    to come to rest at that volume: stress-free (the paper expands the clumps to e, stress-free). Between platens the
+#    cell is periodic laterally only: the clusters are placed between the platens, which close in with the cell's
+#    width, so that the specimen's ends lie flat on them. It depends only on the parameters below, so it is kept in a
+#    cache and reused by every normal law and pressure.
 SAMPLE_PARAMETERS = ("clusters", "cluster_shapes", "cluster_level", "void_ratio", "particle_density", "particle_young",
                      "particle_poisson", "preparation_time_s", "dem_dt", "local_damping", "seed")
-# specimen_height_m joins the key only where it is set, so that the cubic samples keep their keys
+# specimen_height_m and the platens join the key only where they are set, so that the periodic cubes keep their keys
 tall = {"specimen_height_m": p["specimen_height_m"]} if p["specimen_height_m"] > 0 else {}
-cache = bedcache.path("triaxial_small_strain", {**{k: p[k] for k in SAMPLE_PARAMETERS}, **tall}, name="sample",
-                      fallback=os.path.join(out, "cache"))
+between = {"boundary": p["boundary"], "platen_stiffness": p["platen_stiffness"]} if platens else {}
+cache = bedcache.path("triaxial_small_strain", {**{k: p[k] for k in SAMPLE_PARAMETERS}, **tall, **between},
+                      name="sample", fallback=os.path.join(out, "cache"))
 
 
 def prepare_sample():
@@ -91,12 +127,20 @@ def prepare_sample():
     aspect = p["specimen_height_m"] ** 1.5 / math.sqrt(volume) if p["specimen_height_m"] > 0 else 1.0
     side = (solid / 0.12 / aspect) ** (1.0 / 3.0) * np.array([1.0, 1.0, aspect])
     reaches = np.array([s["enclosingRadius"] for s in stones])
+    target = (volume / aspect) ** (1.0 / 3.0)
+    if 2.0 * reaches.max() > target:  # a cluster would meet its own periodic image, with which it has no contact
+        raise ValueError(f"triaxial sample: the cell would be {target:.3f} m wide at the target void ratio, less than "
+                         f"the largest cluster ({2.0 * reaches.max():.3f} m): more clusters, or a lower "
+                         f"specimen_height_m")
+    periodic = np.array([1.0, 1.0, 0.0 if platens else 1.0])  # the axes the placement wraps
     centres = np.zeros((len(stones), 3))
-    for n, k in enumerate(np.argsort(-reaches)):  # random sequential placement of the enclosing spheres (periodic)
+    for n, k in enumerate(np.argsort(-reaches)):  # random sequential placement of the enclosing spheres
         for attempt in range(20000):
             c = rng.uniform(0.0, 1.0, 3) * side
+            if platens:  # between the platens' faces at z = side and 2 side
+                c[2] = side[2] + reaches[k] + (side[2] - 2.0 * reaches[k]) * c[2] / side[2]
             d = centres[:n] - c
-            d -= side * np.round(d / side)
+            d -= periodic * side * np.round(d / side)
             if n == 0 or np.all(np.linalg.norm(d, axis=1) >= reaches[np.argsort(-reaches)[:n]] + reaches[k]):
                 centres[n] = c
                 break
@@ -106,12 +150,16 @@ def prepare_sample():
     order = np.argsort(-reaches)
     O.periodic = True
     O.cell.hSize = Matrix3(side[0], 0, 0, 0, side[1], 0, 0, 0, side[2])
+    if platens:
+        add_platens(side, side[2])
     material = O.materials.append(ballast_material(0.0, 0.0, False))
     ids = [pack_ballast.addClusterStone(stones[k], centres[n], O.materials[material]) for n, k in enumerate(order)]
-    engines(servoed=False)
-    target = (volume / aspect) ** (1.0 / 3.0)
+    engines(servoed=False, with_platens=platens)
     rate = math.log(target / side[0]) / p["preparation_time_s"]
-    O.cell.velGrad = Matrix3(rate, 0, 0, 0, rate, 0, 0, 0, rate)
+    O.cell.velGrad = Matrix3(rate, 0, 0, 0, rate, 0, 0, 0, 0.0 if platens else rate)
+    if platens:  # the gap closes to aspect × target at a constant speed over the same time
+        speed = 0.5 * (side[2] - aspect * target) / p["preparation_time_s"]
+        O.bodies[platen_ids[0]].state.vel, O.bodies[platen_ids[1]].state.vel = Vector3(0, 0, speed), Vector3(0, 0, -speed)
     steps = int(round(p["preparation_time_s"] / O.dt))
     O.run(steps - 1, True)
     O.cell.velGrad = Matrix3.Zero
@@ -120,9 +168,14 @@ def prepare_sample():
         b.state.vel = Vector3.Zero
         b.state.angVel = Vector3.Zero
     O.run(int(round(0.2 * p["preparation_time_s"] / O.dt)), True)
-    members = [(b.clumpId, *b.state.pos, b.shape.radius) for b in O.bodies if b.isClumpMember]
+    members = np.array([(b.clumpId, *b.state.pos, b.shape.radius) for b in O.bodies if b.isClumpMember])
     clumps = [(i, O.bodies[i].state.mass, *O.bodies[i].state.inertia) for i in ids]
-    return np.array(members), np.array(clumps), cell_size(), solid
+    size = cell_size()
+    if platens:  # kept with the bottom face at z = gap, the frame of add_platens
+        size[2] = platen_gap()
+        members[:, 3] += size[2] - platen_face(platen_ids[0])
+        del platen_ids[:]
+    return members, np.array(clumps), size, solid
 
 
 started = time.monotonic()
@@ -138,27 +191,10 @@ preparation_s = time.monotonic() - started
 with np.load(cache) as saved:
     members, clumps, size, solid = saved["members"], saved["clumps"], saved["size"], float(saved["solid"])
 
-# 3. The scene of this run: the sample with the run's normal law and μ = confinement_friction, at rest, stress-free.
-#    With platens the sample's periodicity across z is cut: each cluster is brought into one period (by its members'
-#    mean height), the platens' faces touch the lowest and the highest sphere, and the cell is three specimens tall,
-#    so that no grain meets the other platen through the empty third.
-def cut_between_platens(members, height):
-    members = members.copy()
-    for old in np.unique(members[:, 0]):
-        mine = members[:, 0] == old
-        members[mine, 3] -= height * math.floor(float(np.mean(members[mine, 3])) / height)
-    bottom = float(np.min(members[:, 3] - members[:, 4]))
-    top = float(np.max(members[:, 3] + members[:, 4]))
-    members[:, 3] += (top - bottom) - bottom  # the specimen in the cell's middle third
-    return members, top - bottom
-
-
+# 3. The scene of this run: the sample with the run's normal law and μ = confinement_friction, at rest, stress-free
+#    (size: the cell's edges, or its width and the platens' gap).
 O.periodic = True
-cell_height = size[2]
-if platens:
-    members, specimen_height = cut_between_platens(members, size[2])
-    cell_height = 3.0 * specimen_height
-O.cell.hSize = Matrix3(size[0], 0, 0, 0, size[1], 0, 0, 0, cell_height)
+O.cell.hSize = Matrix3(size[0], 0, 0, 0, size[1], 0, 0, 0, size[2])
 material = O.materials.append(ballast_material(p["confinement_friction"], rms, plastic))
 clump_ids = []
 for old, mass, i1, i2, i3 in clumps:
@@ -171,21 +207,12 @@ for old, mass, i1, i2, i3 in clumps:
     moments[np.argsort(mine)] = np.sort([i1, i2, i3])
     state.mass, state.inertia = float(mass), Vector3(*moments)
     clump_ids.append(cid)
-platen_ids = []  # bottom, top
-PLATEN_HALF_THICKNESS = 0.005  # m
 if platens:
-    # Frictionless steel platens (the paper's, §2.4): boxes 10 mm thick whose faces touch the specimen's ends; they
-    # span the cell ten times over laterally, so every grain's image meets them however the cell strains.
-    steel = O.materials.append(FrictMat(young=p["particle_young"], poisson=p["particle_poisson"], density=7800.0,
-                                        frictionAngle=0.0))
-    half = Vector3(10.0 * size[0], 10.0 * size[1], PLATEN_HALF_THICKNESS)
-    for face, side in ((specimen_height, -1.0), (2.0 * specimen_height, 1.0)):
-        centre = (0.5 * size[0], 0.5 * size[1], face + side * PLATEN_HALF_THICKNESS)
-        platen_ids.append(O.bodies.append(utils.box(centre, half, fixed=True, material=O.materials[steel])))
+    add_platens(size, size[2])
 engines(with_platens=platens)
 count = len(clump_ids)
-print(f"{count} clusters ({len(members)} spheres), cell {size[0]:.4f} x {size[1]:.4f} x {size[2]:.4f} m, "
-      f"e = {np.prod(size) / solid - 1.0:.4f}, normal law {p['normal_model']}, boundary {p['boundary']}, "
+print(f"{count} clusters ({len(members)} spheres), {'platens' if platens else 'cell'} {size[0]:.4f} x {size[1]:.4f} x "
+      f"{size[2]:.4f} m, e = {np.prod(size) / solid - 1.0:.4f}, normal law {p['normal_model']}, "
       f"dt {O.dt:.2e} s (P-wave step {utils.PWaveTimeStep():.2e} s)", flush=True)
 
 
@@ -194,16 +221,6 @@ print(f"{count} clusters ({len(members)} spheres), cell {size[0]:.4f} x {size[1]
 #    With platens the specimen is the platens' gap times the cell's cross-section; its axial stress is the platens'
 #    mean force over that section (the boundary's measure, equal to the branch-vector average in equilibrium: the
 #    frictionless platens' contacts carry axial force only), and the platens' contacts are left out of the sum.
-def platen_face(pid):
-    """Height of a platen's face towards the specimen [m]."""
-    return float(O.bodies[pid].state.pos[2]) + (PLATEN_HALF_THICKNESS if pid == platen_ids[0] else
-                                                -PLATEN_HALF_THICKNESS)
-
-
-def platen_gap():
-    return platen_face(platen_ids[1]) - platen_face(platen_ids[0])
-
-
 def dims():
     """The specimen's edges [m]: the cell's, or its width and the platens' gap."""
     d = cell_size()
@@ -216,13 +233,10 @@ def specimen_volume():
     return float(np.prod(dims())) if platens else O.cell.volume  # the sheared cell's volume is its determinant
 
 
-def is_platen_contact(i):
-    return i.id1 in platen_ids or i.id2 in platen_ids
-
-
 def platen_terms(volume):
     """With platens: (the terms getStress gives the platens' contacts, with branch vectors to the boxes' centres; the
-    Love-Weber terms of those contacts, f on the grain ⊗ (contact point - the cluster's centroid)), each / volume,
+    Love-Weber terms of those contacts, f on the grain ⊗ (the contact point projected on the platen's face - the
+    cluster's centroid)), each / volume,
     tension positive as getStress."""
     h = O.cell.hSize
     given, love_weber = np.zeros((3, 3)), np.zeros((3, 3))
@@ -250,7 +264,7 @@ def platen_terms(volume):
 def stress(branch=False):
     """The specimen's stress tensor, compression positive. With platens the axial stress is the platens' mean force
     over the section, or (branch = True) the Love-Weber average over the grains with the platens' contacts' branch
-    vectors to their contact points: the two agree in equilibrium (a check of case.py)."""
+    vectors to the platens' faces: the two agree in equilibrium (a check of case.py)."""
     if not platens:
         return -np.array(utils.getStress())
     volume = specimen_volume()
@@ -285,10 +299,11 @@ def strains():
     return (reference_size - s) / reference_size  # compression positive, from the confined state (the paper's ΔH/H0)
 
 
-# 5. Servo on the cell (the stress boundary: a periodic cell has no membrane and no platens), a PyRunner every
-#    servo_steps steps before the integrator: each stress-controlled axis strains by gain × (σ - goal)/M over the
-#    next servo_steps steps (homothetic motion of the cell and of the clusters' centroids, Cell.homoDeform); the axial
-#    axis follows its strain schedule. M is the affine (upper-bound) stiffness of the contact network,
+# 5. Servo on the specimen (the stress boundary: the periodic cell has no membrane; without platens it takes the
+#    axial strain too), a PyRunner every servo_steps steps before the integrator: each stress-controlled axis strains
+#    by gain × (σ - goal)/M over the next servo_steps steps (homothetic motion of the cell and of the clusters'
+#    centroids, Cell.homoDeform; between platens the axial strain moves the platens); the axial axis follows its
+#    strain schedule. M is the affine (upper-bound) stiffness of the contact network,
 #    M_i = (1/V) Σ [k_n n_i² + k_t (1 - n_i²)] l_i²: the cell's immediate response to its own strain, so the loop is
 #    stable for gain < 1; the particles' relaxation then lowers the stress further, and the loop converges over a few
 #    relaxation times.
@@ -393,10 +408,11 @@ dem.recorder = results.DemRecorder(out)
 
 
 def set_friction(mu):
-    """μ of the material (new contacts) and of every existing contact."""
+    """μ of the ballast material (new contacts) and of every existing contact between grains (the platens' stay
+    frictionless)."""
     O.materials[material].frictionAngle = math.atan(mu)
     for i in O.interactions:
-        if i.isReal:
+        if i.isReal and not is_platen_contact(i):
             i.phys.tangensOfFrictionAngle = mu
 
 

@@ -31,6 +31,14 @@ def phase(series, name):
     return {k: v[mine] for k, v in series.items() if np.ndim(v) >= 1 and len(v) == len(series["phase_code"])}
 
 
+def after_hold(rows, what):
+    """(start, rows): a probe's hold at ε_a = 0 under the probe's control (its first record: the switch from the
+    confinement's control moves q by a few Pa before any strain, dem.py), as (ε_a, q), and the records after it."""
+    if abs(float(rows["axial_strain"][0])) > 1e-12:
+        raise ValueError(f"the {what} has no hold at ε_a = 0 (a run of an earlier dem.py): run it again")
+    return (0.0, float(rows["q"][0])), {k: v[1:] for k, v in rows.items()}
+
+
 def tangent_modulus(start, rows):
     """Tangent Young's modulus E = Δq/Δε_a [Pa] between consecutive strain levels (σ_r held: Δσ_a = Δq), at the
     geometric mean of the two strains (the arithmetic one from ε = 0), from the state `start` (ε, q) on."""
@@ -74,8 +82,8 @@ class TriaxialSmallStrain(Case):
         model, pressure = p["normal_model"], 1e3 * p["confining_pressure_kPa"]
         confined = phase(series, "confined")
         c = {k: float(v[-1]) for k, v in confined.items()}
-        start = (0.0, c["q"])
-        loading, unloading = phase(series, "loading"), phase(series, "unloading")
+        start, loading = after_hold(phase(series, "loading"), "probe")
+        unloading = phase(series, "unloading")
         mid, modulus = tangent_modulus(start, loading)
         e0 = fitted_modulus(loading, E0_STRAIN / 10.0 ** 0.25, E0_STRAIN * 10.0 ** 0.25)  # ± a quarter decade
         # The confined stress tensor against the applied isotropic p (the servo holds σ = p I: frictionless platens and
@@ -123,11 +131,7 @@ class TriaxialSmallStrain(Case):
             checks.append({"name": "E(λp)/E(p) within the affine and relaxed effective-medium limits (exponent of p)",
                            "value": abs(error), "limit": 0.5 * (0.2567 * p["roughness_fractal_dim"] - 1.0 / 3.0)})
         up, down = phase(series, "loop_loading"), phase(series, "loop_unloading")
-        # The loop's start: its hold at ε_a = 0 under the probe's control (dem.py), whose q is the one it returns to.
-        if abs(float(up["axial_strain"][0])) > 1e-12:
-            raise ValueError("the small-strain loop has no hold at ε_a = 0 (a run of an earlier dem.py): run it again")
-        loop_start = (float(up["axial_strain"][0]), float(up["q"][0]))
-        up = {k: v[1:] for k, v in up.items()}
+        loop_start, up = after_hold(up, "small-strain loop")  # whose q is the one the loop returns to
         residual, eu, qu, ed, qd = loop_residual(loop_start, up, down, e0)
         # The loop checks read the packing alone (periodic boundary). Between platens most of the loop's strain is the
         # platens' linear contacts: E0, the residual's measure, falls 1.6-2.5 times while the packing's slips stay,

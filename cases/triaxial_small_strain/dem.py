@@ -468,14 +468,17 @@ def probe(phase, levels, goal):
     return rows
 
 
-# 6. Confinement to p, then the probe: loading to probe_strain, unloading until q is back to its confined value.
+# 6. Confinement to p, then the probe: loading to probe_strain, unloading until q is back to its value at the start.
+#    The probe starts with a hold at ε_a = 0 under its own control (lateral stresses servo-held, axial strain
+#    prescribed): switching from the confinement's control moves q by a few Pa before any strain (between platens
+#    up to 4 Pa, the increment of q at ε_a = 5e-8), which is not the specimen's response. E is read from the hold on.
 steps, residual = confine(pressure)
 confined = record_state("confined", steps, residual)
 reference_size = dims()
 O.saveTmp("confined")
-q0 = confined["q"]
 levels = strain_levels(p["first_strain"], p["probe_strain"], p["levels_per_decade"])
-loading = probe("loading", levels, pressure)
+loading = probe("loading", [0.0] + levels, pressure)
+q0 = loading[0]["q"]
 peak = levels[-1]
 unload_levels = [peak - d for d in strain_levels(p["first_strain"], peak, p["levels_per_decade"])[:-1]] + [0.0]
 for target in unload_levels:
@@ -489,9 +492,8 @@ for target in unload_levels:
 O.loadTmp("confined")
 reference_size = dims()
 loop_levels = strain_levels(p["first_strain"], p["loop_strain"], p["levels_per_decade"])
-# The loop starts with a hold at ε_a = 0 under the probe's control (lateral stresses servo-held, axial strain
-# prescribed): switching from the all-stress confinement to it moves q by a few Pa before any strain (7 Pa of the
-# elastic loop's 196 Pa on the default sample), which is not the loop's hysteresis. The loop returns to this start.
+# The loop starts with a hold at ε_a = 0 under the probe's control, as the probe (section 6): the switch from the
+# confinement's control moved q by 7 Pa of the elastic loop's 196 Pa on the periodic cube. It returns to this start.
 probe("loop_loading", [0.0] + loop_levels, pressure)
 probe("loop_unloading", [p["loop_strain"] - d for d in strain_levels(p["first_strain"], p["loop_strain"],
                                                                       p["levels_per_decade"])[:-1]] + [0.0], pressure)

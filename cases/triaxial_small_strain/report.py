@@ -12,7 +12,7 @@ import numpy as np
 HERE = os.path.dirname(os.path.abspath(__file__))
 sys.path.insert(0, HERE)
 sys.path.insert(0, os.path.join(HERE, "..", "..", "python"))
-from case import E0_STRAIN, PAPER_E0_MPA, phase, tangent_modulus  # noqa: E402
+from case import E0_STRAIN, PAPER_E0_MPA, after_hold, phase, tangent_modulus  # noqa: E402
 from railcosim import results  # noqa: E402
 
 
@@ -31,9 +31,8 @@ def main(figure, runs):
         p = summary["parameters"]
         m = summary["metrics"]
         series = results.read_dem_series(out)
-        c = phase(series, "confined")
-        start = (0.0, float(c["q"][-1]))
-        loading, unloading = phase(series, "loading"), phase(series, "unloading")
+        start, loading = after_hold(phase(series, "loading"), "probe")
+        unloading = phase(series, "unloading")
         mid, modulus = tangent_modulus(start, loading)
         colour = f"C{k}"
         a.semilogx(mid * 100, modulus / 1e6, "o-", ms=3, color=colour, label=f"{label}: E0 = {m['E0_MPa']:.0f} MPa")

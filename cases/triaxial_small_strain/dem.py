@@ -39,17 +39,19 @@ def ballast_material(friction, roughness, plastic_unloading):
                       roughnessFractalDim=p["roughness_fractal_dim"], plasticUnloading=plastic_unloading)
 
 
-def engines(servoed=True, with_platens=False):
+def engines(servoed=True, with_platens=False, contact_radius=None):
     """The engines; with_platens adds the platens' boxes and their contacts: linear springs of platen_stiffness,
     frictionless (Ip2_FrictMat_FrictMat_FrictPhys with a constant k_n, Cundall-Strack law; the paper's platen-grain
-    contacts, §2.4). The boxes span the periodic cell laterally many times over (allowBiggerThanPeriod)."""
+    contacts, §2.4). The boxes span the periodic cell laterally many times over (allowBiggerThanPeriod).
+    contact_radius: the contacts' R* (0: R1R2/(R1+R2)); None: the run's."""
+    radius = p["contact_radius"] if contact_radius is None else contact_radius
     box = with_platens
     O.engines = [
         ForceResetter(),
         InsertionSortCollider([Bo1_Sphere_Aabb()] + ([Bo1_Box_Aabb()] if box else []), verletDist=-0.1,
                               allowBiggerThanPeriod=box),
         InteractionLoop([Ig2_Sphere_Sphere_ScGeom()] + ([Ig2_Box_Sphere_ScGeom()] if box else []),
-                        [Ip2_BallastMat_BallastMat_BallastPhys(fixedEffectiveRadius=p["contact_radius"])] +
+                        [Ip2_BallastMat_BallastMat_BallastPhys(fixedEffectiveRadius=radius)] +
                         ([Ip2_FrictMat_FrictMat_FrictPhys(kn=MatchMaker(algo="val", val=p["platen_stiffness"]),
                                                           ks=MatchMaker(algo="val", val=p["platen_stiffness"]))]
                          if box else []),
@@ -154,7 +156,7 @@ def prepare_sample():
         add_platens(side, side[2])
     material = O.materials.append(ballast_material(0.0, 0.0, False))
     ids = [pack_ballast.addClusterStone(stones[k], centres[n], O.materials[material]) for n, k in enumerate(order)]
-    engines(servoed=False, with_platens=platens)
+    engines(servoed=False, with_platens=platens, contact_radius=0.0)  # the sample does not depend on the run's R*
     rate = math.log(target / side[0]) / p["preparation_time_s"]
     O.cell.velGrad = Matrix3(rate, 0, 0, 0, rate, 0, 0, 0, 0.0 if platens else rate)
     if platens:  # the gap closes to aspect × target at a constant speed over the same time

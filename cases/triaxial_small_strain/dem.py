@@ -161,7 +161,8 @@ def prepare_sample():
     O.cell.velGrad = Matrix3(rate, 0, 0, 0, rate, 0, 0, 0, 0.0 if platens else rate)
     if platens:  # the gap closes to aspect × target at a constant speed over the same time
         speed = 0.5 * (side[2] - aspect * target) / p["preparation_time_s"]
-        O.bodies[platen_ids[0]].state.vel, O.bodies[platen_ids[1]].state.vel = Vector3(0, 0, speed), Vector3(0, 0, -speed)
+        O.bodies[platen_ids[0]].state.vel = Vector3(0, 0, speed)
+        O.bodies[platen_ids[1]].state.vel = Vector3(0, 0, -speed)
     steps = int(round(p["preparation_time_s"] / O.dt))
     O.run(steps - 1, True)
     O.cell.velGrad = Matrix3.Zero

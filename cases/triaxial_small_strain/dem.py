@@ -45,7 +45,7 @@ def engines(servoed=True, with_platens=False, contact_radius=None):
     contacts, §2.4). The boxes span the periodic cell laterally many times over (allowBiggerThanPeriod).
     contact_radius: the contacts' R* (0: R1R2/(R1+R2)); None: the run's."""
     radius = p["contact_radius"] if contact_radius is None else contact_radius
-    box = with_platens
+    box = with_platens  # short for the engine lists below
     O.engines = [
         ForceResetter(),
         InsertionSortCollider([Bo1_Sphere_Aabb()] + ([Bo1_Box_Aabb()] if box else []), verletDist=-0.1,
@@ -236,11 +236,10 @@ def specimen_volume():
     return float(np.prod(dims())) if platens else O.cell.volume  # the sheared cell's volume is its determinant
 
 
-def platen_terms(volume):
+def platen_terms(volume, with_love_weber):
     """With platens: (the terms getStress gives the platens' contacts, with branch vectors to the boxes' centres; the
     Love-Weber terms of those contacts, f on the grain ⊗ (the contact point projected on the platen's face - the
-    cluster's centroid)), each / volume,
-    tension positive as getStress."""
+    cluster's centroid; zero unless with_love_weber)), each / volume, tension positive as getStress."""
     h = O.cell.hSize
     given, love_weber = np.zeros((3, 3)), np.zeros((3, 3))
     for pid in platen_ids:
@@ -251,6 +250,8 @@ def platen_terms(volume):
             force = np.array(i.phys.normalForce + i.phys.shearForce)  # YADE's phys force acts on id2, -force on id1
             shift = np.array(h * Vector3(*i.cellDist))
             given += np.outer(force, np.array(a.state.pos - b.state.pos) - shift)
+            if not with_love_weber:  # the servo's stress, every few steps, needs only the first
+                continue
             grain, on_grain = (i.id2, force) if i.id1 == pid else (i.id1, -force)
             member = O.bodies[grain]
             centre = np.array(O.bodies[member.clumpId].state.pos)
@@ -271,7 +272,7 @@ def stress(branch=False):
     if not platens:
         return -np.array(utils.getStress())
     volume = specimen_volume()
-    given, love_weber = platen_terms(volume)
+    given, love_weber = platen_terms(volume, with_love_weber=branch)
     s = np.array(utils.getStress(volume)) - given
     if branch:
         return -(s + love_weber)

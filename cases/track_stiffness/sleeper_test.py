@@ -18,8 +18,13 @@ import time
 import numpy as np
 
 from railcosim import parameters, track
+from railcosim.case import load_case
 
+if "RAILCOSIM_ROOT" not in os.environ:
+    sys.exit("sleeper_test.py: run it through the repository's launcher: ./railcosim yade "
+             "cases/track_stiffness/sleeper_test.py OUT ...")
 CASE = os.path.join(os.environ["RAILCOSIM_ROOT"], "cases", "track_stiffness")
+REFERENCE_S = 0.01          # settlements from the sleepers' mean height over this span before the ramp (as case.py)
 STEPS_PER_RECORD = 20
 UNLOAD_TO = 0.1             # a cycle unloads to this share of the seat load
 STATICS_TOLERANCE = 0.03    # the base's force against the weights and the load at the hold (the case's statics check)
@@ -34,14 +39,13 @@ parser.add_argument("--rigid-base", action="store_true", help="the base wall's E
 parser.add_argument("--locked", action="store_true", help="no sliding or rolling between grains (mu, eta_r 10)")
 parser.add_argument("--cycles", type=int, default=0, help="unload-reload cycles before the hold")
 args = parser.parse_args(sys.argv[1:])
-if args.seat_load <= 0 or args.cycles < 0:
-    sys.exit("sleeper_test.py: --seat-load must be positive and --cycles not negative")
-import tomllib  # noqa: E402
-with open(os.path.join(CASE, "case.toml"), "rb") as f:
-    config = tomllib.load(f)
+if not (math.isfinite(args.seat_load) and args.seat_load > 0) or args.cycles < 0:
+    sys.exit("sleeper_test.py: --seat-load must be a positive number and --cycles not negative")
+
+config, case = load_case(CASE)
 try:
     p = parameters.resolve_parameters(config, args.smoke, args.set)
-    problems = parameters.check_parameters(p, config)
+    problems = parameters.check_parameters(p, config, case)  # the case's own: a hold after the ramp, 0.01 s before
 except parameters.ParameterError as error:
     problems = [str(error)]
 if not problems and p["subgrade"] != "wall":
@@ -55,7 +59,12 @@ wall_start = time.monotonic()
 #    materials before any contact exists.
 bed = track.TrackBed(p, args.out)
 if args.rigid_base:
+    # The bed rests on the soft base with overlaps of up to ~0.2 mm: against a base 1000 times stiffer they would
+    # push with ~75 times the bed's weight. The stiff base is lowered by the largest overlap; the bed comes down onto
+    # it and rests during load_start_s.
     O.materials[bed.base].young *= 1000.0
+    overlap = max(0.0, max(bed.base_z - (O.bodies[i].state.pos[2] - O.bodies[i].shape.radius) for i in bed.spheres))
+    O.bodies[bed.base_wall].state.pos = O.bodies[bed.base_wall].state.pos - Vector3(0, 0, overlap)
 if args.locked:
     O.materials[bed.ballast].frictionAngle = math.atan(10.0)
     O.materials[bed.ballast].rollingFriction = 10.0
@@ -114,11 +123,14 @@ rows = np.array(rows)
 header = "time_s,seat_load_N," + ",".join(f"sleeper{k}_z_m" for k in range(len(boxes))) + ",base_force_N"
 np.savetxt(os.path.join(args.out, "sleeper_test.csv"), rows, delimiter=",", header=header, comments="")
 
-# 4. Settlements from the start of the ramp; means over the last average_s of the hold; the secant and the tangent
-#    over the ramp's last half; each cycle's reloading secant (10 % to 100 %).
-z0 = rows[np.searchsorted(rows[:, 0], settle), 2:2 + len(boxes)]
+# 4. Settlements from the sleepers' mean height over REFERENCE_S before the ramp; at the hold, means over its last
+#    average_s (after the cycles, with --cycles); the first loading's secant at the ramp's top and its tangent over
+#    the ramp's last half; each cycle's reloading secant (10 % to 100 %).
+z0 = rows[(rows[:, 0] > settle - REFERENCE_S) & (rows[:, 0] <= settle), 2:2 + len(boxes)].mean(axis=0)
 last = rows[rows[:, 0] > end_time - p["average_s"]].mean(axis=0)
 settlement = -(last[2:2 + len(boxes)] - z0)
+top = rows[np.searchsorted(rows[:, 0], settle + ramp) - 1]  # the last record of the first ramp
+first_secant = top[1] / (z0[0] - top[2])
 late = (rows[:, 0] > settle + 0.5 * ramp) & (rows[:, 0] < settle + ramp)
 tangent = np.polyfit(-rows[late, 2], rows[late, 1], 1)[0]
 reloads = []
@@ -139,7 +151,8 @@ summary = {
     "bed_interior_porosity": None if math.isnan(porosity) else porosity,
     "bed_interior_coordination_number": None if math.isnan(coordination) else coordination,
     "settlement_m": settlement.tolist(),
-    "support_stiffness_per_rail_seat_kN_per_mm": args.seat_load / settlement[0] / 1e6,
+    "support_stiffness_per_rail_seat_kN_per_mm": args.seat_load / settlement[0] / 1e6,  # at the hold
+    "first_loading_secant_kN_per_mm": first_secant / 1e6,
     "tangent_last_half_of_ramp_kN_per_mm": tangent / 1e6,
     "reload_secant_kN_per_mm": [r / 1e6 for r in reloads],
     "statics_error": statics, "statics_tolerance": STATICS_TOLERANCE,
@@ -151,8 +164,9 @@ structure = "interior not measured" if math.isnan(porosity) else \
     f"interior porosity {porosity:.1%}, coordination number {coordination:.2f} (the bed at rest, before the sleepers)"
 print(f"{len(bed.spheres)} spheres, {structure}; seat load {args.seat_load / 1e3:.1f} kN: settlement of the loaded "
       f"sleeper {settlement[0] * 1e3:.3f} mm (the others {', '.join(f'{s * 1e3:.3f}' for s in settlement[1:])} mm); "
-      f"k_sub per rail seat {summary['support_stiffness_per_rail_seat_kN_per_mm']:.2f} kN/mm (secant), "
-      f"{tangent / 1e6:.2f} (tangent, last half of the ramp)"
+      f"k_sub per rail seat {summary['support_stiffness_per_rail_seat_kN_per_mm']:.2f} kN/mm (secant at the hold"
+      + (f", after {args.cycles} cycles; first loading {first_secant / 1e6:.2f}" if args.cycles else "")
+      + f"), {tangent / 1e6:.2f} (tangent, last half of the ramp)"
       + "".join(f"; reload {k + 1}: {r / 1e6:.2f}" for k, r in enumerate(reloads))
       + f"; statics {statics:.2%} (limit {STATICS_TOLERANCE:.0%}); {summary['wall_time_s']:.0f} s", flush=True)
 if statics > STATICS_TOLERANCE:

@@ -137,13 +137,13 @@ reloads = []
 for k in range(args.cycles):
     branch = rows[(rows[:, 0] > settle + ramp * (2 + 2 * k)) & (rows[:, 0] < settle + ramp * (3 + 2 * k))]
     reloads.append((branch[-1, 1] - branch[0, 1]) / (branch[0, 2] - branch[-1, 2]))
-# The statics: the mirror and shoulder walls are frictionless, so at rest the base carries the bed, the sleepers and
-# the load on the quarter's box.
 try:
     porosity, coordination = track.bed_structure(bed.bed)
-except ValueError as error:  # the smoke's bed of coarse grains, two to three deep, has no interior
+except ValueError as error:  # a bed of coarse grains, two to three deep, has no interior
     print(f"bed structure not measured: {error}", flush=True)
     porosity = coordination = float("nan")
+# The statics: the mirror and shoulder walls are frictionless, so at rest the base carries the bed, the sleepers and
+# the load on the quarter's box.
 statics = abs(last[-1] - (weights + 0.5 * args.seat_load)) / (weights + 0.5 * args.seat_load)
 summary = {
     "seat_load_N": args.seat_load, "rigid_base": args.rigid_base, "locked": args.locked, "cycles": args.cycles,

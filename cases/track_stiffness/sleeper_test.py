@@ -82,10 +82,7 @@ for k in range(p["sleepers"]):
     box.state.blockedDOFs = "xyXYZ"
     boxes.append(O.bodies.append(box))
 weights = sum(O.bodies[b].state.mass for b in boxes) * track.GRAVITY + bed.mass * track.GRAVITY
-O.engines = [ForceResetter(), InsertionSortCollider([Bo1_Sphere_Aabb(), Bo1_Box_Aabb(), Bo1_Wall_Aabb()]),
-             InteractionLoop([Ig2_Sphere_Sphere_ScGeom(), Ig2_Box_Sphere_ScGeom(), Ig2_Wall_Sphere_ScGeom()],
-                             [Ip2_BallastMat_BallastMat_BallastPhys()], [Law2_ScGeom_BallastPhys_Ballast()]),
-             BoundedRollingFrictionEngine(), NewtonIntegrator(damping=0.0, gravity=(0, 0, -track.GRAVITY))]
+O.engines = bed.engines(boxes=True) + [NewtonIntegrator(damping=0.0, gravity=(0, 0, -track.GRAVITY))]
 O.dt = p["dem_dt_safety"] * utils.PWaveTimeStep()
 
 # 3. The load: the sleepers settle under their weight for load_start_s, the seat load is ramped over ramp_s, then

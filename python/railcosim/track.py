@@ -279,16 +279,20 @@ class TrackBed:
         from yade import O
         return sum(O.bodies[i].state.mass for i in self.spheres)
 
-    def engines(self):
+    def engines(self, boxes=False):
         """YADE's engines up to the contact loop and the rolling friction: a case appends its coupling engine and the
-        integrator."""
-        from yade.wrapper import (Bo1_Facet_Aabb, Bo1_Sphere_Aabb, Bo1_Wall_Aabb, BoundedRollingFrictionEngine,
-                                  ForceResetter, Ig2_Facet_Sphere_ScGeom, Ig2_Sphere_Sphere_ScGeom,
-                                  Ig2_Wall_Sphere_ScGeom, InsertionSortCollider, InteractionLoop,
-                                  Ip2_BallastMat_BallastMat_BallastPhys, Law2_ScGeom_BallastPhys_Ballast)
-        return [ForceResetter(), InsertionSortCollider([Bo1_Sphere_Aabb(), Bo1_Facet_Aabb(), Bo1_Wall_Aabb()]),
-                InteractionLoop([Ig2_Sphere_Sphere_ScGeom(), Ig2_Facet_Sphere_ScGeom(), Ig2_Wall_Sphere_ScGeom()],
-                                [Ip2_BallastMat_BallastMat_BallastPhys()], [Law2_ScGeom_BallastPhys_Ballast()]),
+        integrator. boxes: also box bodies (rigid sleepers, cases/track_stiffness/sleeper_test.py)."""
+        from yade.wrapper import (Bo1_Box_Aabb, Bo1_Facet_Aabb, Bo1_Sphere_Aabb, Bo1_Wall_Aabb,
+                                  BoundedRollingFrictionEngine, ForceResetter, Ig2_Box_Sphere_ScGeom,
+                                  Ig2_Facet_Sphere_ScGeom, Ig2_Sphere_Sphere_ScGeom, Ig2_Wall_Sphere_ScGeom,
+                                  InsertionSortCollider, InteractionLoop, Ip2_BallastMat_BallastMat_BallastPhys,
+                                  Law2_ScGeom_BallastPhys_Ballast)
+        bounds = [Bo1_Sphere_Aabb(), Bo1_Facet_Aabb(), Bo1_Wall_Aabb()] + ([Bo1_Box_Aabb()] if boxes else [])
+        geometries = [Ig2_Sphere_Sphere_ScGeom(), Ig2_Facet_Sphere_ScGeom(), Ig2_Wall_Sphere_ScGeom()] + \
+            ([Ig2_Box_Sphere_ScGeom()] if boxes else [])
+        return [ForceResetter(), InsertionSortCollider(bounds),
+                InteractionLoop(geometries, [Ip2_BallastMat_BallastMat_BallastPhys()],
+                                [Law2_ScGeom_BallastPhys_Ballast()]),
                 BoundedRollingFrictionEngine()]
 
     def base_force(self):

@@ -4,9 +4,11 @@
 # alone, without rail or pads. It separates what the bed and the base give from what the FreeFEM track adds.
 # Options that take parts away (README, "The bed's own support"): --rigid-base (the base wall's E x 1000),
 # --locked (ballast-ballast mu and eta_r 10: no sliding or rolling between grains), --cycles N (N unloadings to 10 %
-# and reloadings before the hold).
+# and reloadings before the hold). --restitution E gives every contact the restitution E (the thesis's 0, Table 7.1),
+# --rolling-friction ETA the grains' eta_r (0.6: cases/angle_of_repose's calibration), on the cached bed, which was
+# packed and rested with the case's values.
 # Run: ./railcosim yade cases/track_stiffness/sleeper_test.py OUT [--smoke] [--set KEY=VALUE ...] [--seat-load N]
-#      [--rigid-base] [--locked] [--cycles N]
+#      [--rigid-base] [--locked] [--cycles N] [--restitution E] [--rolling-friction ETA]
 # Writes OUT/sleeper_test.json and OUT/sleeper_test.csv (time, force, settlements, base force).
 import argparse
 import json
@@ -38,9 +40,19 @@ parser.add_argument("--seat-load", type=float, default=75000.0,
 parser.add_argument("--rigid-base", action="store_true", help="the base wall's E x 1000")
 parser.add_argument("--locked", action="store_true", help="no sliding or rolling between grains (mu, eta_r 10)")
 parser.add_argument("--cycles", type=int, default=0, help="unload-reload cycles before the hold")
+parser.add_argument("--restitution", type=float, default=None,
+                    help="every contact's restitution in the test, 0 to 1 (default: the case's restitution)")
+parser.add_argument("--rolling-friction", type=float, default=None,
+                    help="eta_r between grains in the test, >= 0 (default: the case's rolling_friction)")
 args = parser.parse_args(sys.argv[1:])
 if not (math.isfinite(args.seat_load) and args.seat_load > 0) or args.cycles < 0:
     sys.exit("sleeper_test.py: --seat-load must be a positive number and --cycles not negative")
+if args.restitution is not None and not 0.0 <= args.restitution <= 1.0:  # NaN fails too
+    sys.exit(f"sleeper_test.py: --restitution must lie in [0, 1], not {args.restitution}")
+if args.rolling_friction is not None and not (math.isfinite(args.rolling_friction) and args.rolling_friction >= 0):
+    sys.exit(f"sleeper_test.py: --rolling-friction must be a number >= 0, not {args.rolling_friction}")
+if args.locked and args.rolling_friction is not None:
+    sys.exit("sleeper_test.py: --locked sets eta_r to 10; leave out --rolling-friction")
 
 config, case = load_case(CASE)
 try:
@@ -68,6 +80,11 @@ if args.rigid_base:
 if args.locked:
     O.materials[bed.ballast].frictionAngle = math.atan(10.0)
     O.materials[bed.ballast].rollingFriction = 10.0
+if args.rolling_friction is not None:
+    O.materials[bed.ballast].rollingFriction = args.rolling_friction
+if args.restitution is not None:  # e = 0: Thornton's damping ratio 14.2, strongly overdamped contacts
+    for material in O.materials:
+        material.restitution = args.restitution
 
 # 2. The sleepers: boxes of the NS90 block at the spacing, their bases at z = 0 where the bed's highest grain under them
 #    is. The quarter holds a quarter of the loaded sleeper (x = 0 and y = 0 are planes of symmetry) and halves of the
@@ -144,6 +161,9 @@ except ValueError as error:  # a bed of coarse grains, two to three deep, has no
 statics = abs(last[-1] - (weights + 0.5 * args.seat_load)) / (weights + 0.5 * args.seat_load)
 summary = {
     "seat_load_N": args.seat_load, "rigid_base": args.rigid_base, "locked": args.locked, "cycles": args.cycles,
+    "restitution": p["restitution"] if args.restitution is None else args.restitution,
+    "rolling_friction": 10.0 if args.locked else (
+        p["rolling_friction"] if args.rolling_friction is None else args.rolling_friction),
     "spheres": len(bed.spheres), "bed": bed.cache, "dem_dt_s": O.dt, "smoke": args.smoke, "set": args.set,
     "bed_interior_porosity": None if math.isnan(porosity) else porosity,
     "bed_interior_coordination_number": None if math.isnan(coordination) else coordination,

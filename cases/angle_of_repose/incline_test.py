@@ -6,7 +6,7 @@
 # pile").
 # Two models of the same stones:
 #   clusters (YADE, the case's contact law with e = 0 and the Zhao–van Wachem integrator, 2 µs):
-#       ./railcosim yade cases/angle_of_repose/incline_test.py coarse|fine
+#       ./railcosim yade cases/angle_of_repose/incline_test.py coarse|fine|angular
 #   dilated polyhedra (the polyhedra library through its driver, without YADE; r_d a fraction of the size):
 #       RAILCOSIM_ROOT=$PWD /usr/bin/python3 cases/angle_of_repose/incline_test.py polyhedra [0.03]
 # and, without any dynamics, the static oracle of the stones' hulls: for each face the centroid stands over, the
@@ -26,8 +26,8 @@ SIZE, DENSITY, YOUNG, FRICTION = 0.03, 2700.0, 2.4e9, 0.6
 SETTLE, TILTED, ANGLES = 0.4, 0.5, (5, 10, 20)
 library = ballast_clusters.loadShapeLibrary()
 model = sys.argv[1] if len(sys.argv) > 1 else "coarse"
-if model not in ("coarse", "fine", "polyhedra", "tipping"):
-    sys.exit(f"incline_test.py: the model is coarse, fine, polyhedra or tipping, not {model!r}")
+if model not in ("coarse", "fine", "angular", "polyhedra", "tipping"):
+    sys.exit(f"incline_test.py: the model is coarse, fine, angular, polyhedra or tipping, not {model!r}")
 relative_dilation = 0.03
 if model == "polyhedra" and len(sys.argv) > 2:
     try:

@@ -130,6 +130,50 @@ class ClusterConstruction(unittest.TestCase):
         self.assertTrue(np.all(reach <= cluster["enclosingRadius"] * (1 + 1e-12)))
 
 
+class AngularClusters(unittest.TestCase):
+    CUBE = np.array([[x, y, z] for x in (-1.0, 1.0) for y in (-1.0, 1.0) for z in (-1.0, 1.0)])
+
+    def test_corner_spheres_of_a_cube_touch_its_three_faces(self):
+        # Closed form: the sphere of radius r tangent to the three faces at the corner (±1, ±1, ±1) of the cube
+        # [-1, 1]^3 has its centre at (±(1 - r), ±(1 - r), ±(1 - r)).
+        spheres = bc.cornerSpheres(bc.ConvexStone(self.CUBE), 0.2)
+        self.assertEqual(len(spheres), 8)
+        np.testing.assert_allclose(np.sort(np.abs(spheres[:, :3]), axis=0), 0.8 * np.ones((8, 3)), atol=1e-12)
+        np.testing.assert_allclose(spheres[:, 3], 0.2, atol=1e-12)
+        with self.assertRaises(ValueError):
+            bc.cornerSpheres(bc.ConvexStone(self.CUBE), 0.0)
+
+    def test_angular_cube_stands_on_four_corners_of_each_face(self):
+        # No sphere reaches beyond the surface, and on every face the four corner spheres touch the face's plane:
+        # the cluster stands on a square of side 2(1 - r) around the centre of mass, as the cube stands on its face.
+        # A common inflation (fitSphereCluster) would make the central sphere the one that touches.
+        # The fill is the cube's inscribed sphere (an odd candidate grid has the centre), touching each face's middle.
+        stone = bc.ConvexStone(self.CUBE)
+        spheres = bc.fitAngularCluster(stone, 1, cornerRadius=0.2, candidateResolution=9, sampleResolution=10)
+        self.assertEqual(len(spheres), 9)
+        np.testing.assert_allclose(spheres[8], [0.0, 0.0, 0.0, 1.0], atol=1e-12)
+        self.assertTrue(np.all(stone.signedDistance(spheres[:, :3]) >= spheres[:, 3] - 1e-12))
+        for axis in range(3):
+            for sign in (-1.0, 1.0):
+                reach = sign * spheres[:8, axis] + spheres[:8, 3]  # the corner spheres' reach towards the face
+                touching = spheres[:8][np.abs(reach - 1.0) < 1e-9]
+                self.assertEqual(len(touching), 4)
+                plane = [k for k in range(3) if k != axis]
+                np.testing.assert_allclose(np.abs(touching[:, plane]), 0.8, atol=1e-12)
+
+    def test_library_angular_clusters_stay_inside_their_stones(self):
+        for shape in bc.loadShapeLibrary()["shapes"]:
+            stone = bc.ConvexStone(shape["vertices"], shape["triangles"])
+            cluster = shape["clusters"]["angular"]
+            # back to the stone's frame: x_stone = rotation @ x_cluster + centreOfMass
+            centres = cluster["spheres"][:, :3] @ cluster["rotation"].T + cluster["centreOfMass"]
+            self.assertTrue(np.all(stone.signedDistance(centres) >= cluster["spheres"][:, 3] - 1e-9), shape["name"])
+            # one corner sphere per hull vertex, at most its radius times sqrt(3) from the vertex for a corner of
+            # three faces at right angles, more for sharper corners: within a tenth of the sieve size here
+            corners = centres[:len(shape["vertices"])]
+            self.assertLess(np.max(np.linalg.norm(corners - shape["vertices"], axis=1)), 0.5, shape["name"])
+
+
 class ShapeLibrary(unittest.TestCase):
     @classmethod
     def setUpClass(cls):
@@ -151,8 +195,10 @@ class ShapeLibrary(unittest.TestCase):
             self.assertAlmostEqual(bc.sieveSize(stone), 1.0, places=6)
             self.assertAlmostEqual(stone.volume, shape["volume"], places=8)
             coarse, fine = shape["clusters"]["coarse"], shape["clusters"]["fine"]
+            angular = shape["clusters"]["angular"]
             self.assertTrue(7 <= len(coarse["spheres"]) <= 16, shape["name"])
             self.assertTrue(29 <= len(fine["spheres"]) <= 45, shape["name"])
+            self.assertTrue(28 <= len(angular["spheres"]) <= 55, shape["name"])
             for cluster in (coarse, fine):
                 quick = bc.sphereUnionMassProperties(cluster["spheres"], columns=200)
                 # 200 columns: accuracy ~3e-5 (single-sphere convergence above); 1e-3 catches a stale file.

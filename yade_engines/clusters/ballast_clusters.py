@@ -7,6 +7,8 @@ Pipeline (Irazábal 2017 §5.9, with a mesh-free integration instead of a tetrah
   -> common radius inflation that minimises the symmetric-difference volume with the stone
   -> exact-in-z column integration of the sphere union (overlaps counted once): volume, centre of mass,
      inertia -> spheres expressed in principal axes -> enclosing sphere (eqs. 5.58-5.63, corrected).
+The angular construction (fitAngularCluster) replaces the first two steps by a sphere in every corner and an
+inscribed fill, without growth.
 
 Units: whatever the caller uses (the shape library is stored at unit sieve size, see sieveSize()).
 """
@@ -259,23 +261,16 @@ def _gridInside(stone, count):
     return grid, spacing
 
 
-def fitSphereCluster(stone, sphereCount, candidateResolution=24, sampleResolution=40):
-    """Spheres (k, 4: x, y, z, r) that fill a convex stone, in the stone's frame.
-
-    1. Candidates: grid points inside the stone, each carrying its maximal inscribed sphere.
-    2. Greedy cover: repeatedly add the candidate sphere that covers the most still-uncovered interior
-       sample points (the reduced-Hubbard idea of covering the medial region, without the medial-axis mesh).
-    3. All radii are multiplied by the factor s >= 1 that minimises the symmetric-difference volume between
-       the stone and the union; inscribed spheres alone under-fill the corners of an angular stone.
-    Deterministic: fixed grids and first-index tie breaking.
-    """
-    if sphereCount < 1:
-        raise ValueError("fitSphereCluster: sphereCount must be >= 1, got %d" % sphereCount)
+def _inscribedCover(stone, sphereCount, candidateResolution, sampleResolution, given=None):
+    """Greedy cover of the stone's interior by maximal inscribed spheres: candidates on a grid inside the stone, each
+    with its inscribed radius; repeatedly the one covering the most still-uncovered interior sample points (the
+    reduced-Hubbard idea of covering the medial region, without the medial-axis mesh). Sample points inside `given`
+    spheres (k, 4) count as covered from the start. Returns centres (n, 3) and radii (n,)."""
     grid, _ = _gridInside(stone, candidateResolution)
     depth = stone.signedDistance(grid)
     candidates = grid[depth > 0.0]
     candidateRadii = depth[depth > 0.0]
-    samplesAll, sampleSpacing = _gridInside(stone, sampleResolution)
+    samplesAll, _ = _gridInside(stone, sampleResolution)
     samples = samplesAll[stone.signedDistance(samplesAll) > 0.0]
     covers = np.zeros((len(candidates), len(samples)), dtype=np.float32)
     for start in range(0, len(candidates), 256):
@@ -283,6 +278,8 @@ def fitSphereCluster(stone, sphereCount, candidateResolution=24, sampleResolutio
         distance = np.linalg.norm(candidates[block, None, :] - samples[None, :, :], axis=2)
         covers[block] = distance <= candidateRadii[block, None]
     uncovered = np.ones(len(samples), dtype=np.float32)
+    for sphere in ([] if given is None else given):
+        uncovered[np.linalg.norm(samples - sphere[:3], axis=1) <= sphere[3]] = 0.0
     chosen = []
     for _ in range(sphereCount):
         gain = covers @ uncovered
@@ -295,8 +292,22 @@ def fitSphereCluster(stone, sphereCount, candidateResolution=24, sampleResolutio
             best = int(remaining[np.argmax(candidateRadii[remaining])])
         chosen.append(best)
         uncovered *= 1.0 - covers[best]
-    centres = candidates[chosen]
-    radii = candidateRadii[chosen]
+    return candidates[chosen], candidateRadii[chosen]
+
+
+def fitSphereCluster(stone, sphereCount, candidateResolution=24, sampleResolution=40):
+    """Spheres (k, 4: x, y, z, r) that fill a convex stone, in the stone's frame.
+
+    1. Candidates: grid points inside the stone, each carrying its maximal inscribed sphere.
+    2. Greedy cover: repeatedly add the candidate sphere that covers the most still-uncovered interior
+       sample points (the reduced-Hubbard idea of covering the medial region, without the medial-axis mesh).
+    3. All radii are multiplied by the factor s >= 1 that minimises the symmetric-difference volume between
+       the stone and the union; inscribed spheres alone under-fill the corners of an angular stone.
+    Deterministic: fixed grids and first-index tie breaking.
+    """
+    if sphereCount < 1:
+        raise ValueError("fitSphereCluster: sphereCount must be >= 1, got %d" % sphereCount)
+    centres, radii = _inscribedCover(stone, sphereCount, candidateResolution, sampleResolution)
 
     # Inflation factor: symmetric difference on a grid over the stone's box widened by the largest radius.
     lower, upper = stone.boundingBox()
@@ -317,8 +328,41 @@ def fitSphereCluster(stone, sphereCount, candidateResolution=24, sampleResolutio
     return np.column_stack([centres, radii * best])
 
 
-def buildCluster(stone, sphereCount, density=1.0, columns=400):
-    """A sphere cluster for `stone` with its mass properties, in the principal axes of the sphere union.
+def cornerSpheres(stone, radius):
+    """One sphere (k, 4) at each hull vertex, tangent to every face that meets there: the corner rounded with `radius`
+    (less where the stone has no room for it: then the largest sphere inscribed at that centre)."""
+    if not radius > 0.0:
+        raise ValueError("cornerSpheres: the corner radius must be positive, got %r" % (radius,))
+    v, t = stone.vertices, stone.triangles
+    normals = np.cross(v[t[:, 1]] - v[t[:, 0]], v[t[:, 2]] - v[t[:, 0]])
+    normals /= np.linalg.norm(normals, axis=1)[:, None]
+    spheres = []
+    for i in range(len(v)):
+        faces = np.unique(np.round(normals[(t == i).any(axis=1)], 9), axis=0)  # coplanar triangles: one face
+        # the centre lies `radius` inside every face plane through the vertex: n_f . (c - v_i) = -radius
+        centre = v[i] + np.linalg.lstsq(faces, -radius * np.ones(len(faces)), rcond=None)[0]
+        spheres.append([*centre, min(radius, stone.signedDistance(centre)[0])])
+    return np.array(spheres)
+
+
+def fitAngularCluster(stone, fillCount, cornerRadius=0.08, candidateResolution=24, sampleResolution=40):
+    """Spheres (k, 4) for an angular stone: a sphere in every corner (cornerSpheres) and `fillCount` maximal inscribed
+    spheres covering the rest of the interior (the greedy cover of fitSphereCluster), none grown beyond the surface.
+
+    Every sphere touching a face is tangent to its plane, so a stone lying on a face rests on its corner spheres and
+    on the fill spheres of that face, as the stone rests on its face; and it rolls over a sharp corner, not over a
+    large sphere. fitSphereCluster's common inflation makes the largest sphere bulge furthest beyond the faces it
+    touches and rounds the corners: such clusters rock and roll where the stone lies still
+    (cases/angle_of_repose/README.md). The price is volume: the union under-fills the edges between corners.
+    """
+    corners = cornerSpheres(stone, cornerRadius)
+    centres, radii = _inscribedCover(stone, fillCount, candidateResolution, sampleResolution, given=corners)
+    return np.vstack([corners, np.column_stack([centres, radii])])
+
+
+def buildCluster(stone, sphereCount=None, density=1.0, columns=400, spheres=None):
+    """A sphere cluster for `stone` with its mass properties, in the principal axes of the sphere union: of
+    fitSphereCluster(stone, sphereCount), or of the given `spheres` (k, 4) in the stone's frame (e.g. fitAngularCluster).
 
     Returns a dict: spheres (k, 4) in principal axes about the centre of mass; mass, volume, principal inertia
     (ascending, density-weighted); rotation (columns = principal axes in the stone frame) and centreOfMass
@@ -327,7 +371,9 @@ def buildCluster(stone, sphereCount, density=1.0, columns=400):
     integrationAccuracy = largest relative change of volume and principal moments between `columns` and
     columns/2 (an estimate of the column-integration error at `columns`, conservative for a convergent rule).
     """
-    spheres = fitSphereCluster(stone, sphereCount)
+    if spheres is None:
+        spheres = fitSphereCluster(stone, sphereCount)
+    spheres = np.asarray(spheres, dtype=float)
     properties = sphereUnionMassProperties(spheres, density, columns)
     coarse = sphereUnionMassProperties(spheres, density, columns // 2)
     moments, rotation = principalFrame(properties["inertia"])
@@ -339,7 +385,7 @@ def buildCluster(stone, sphereCount, density=1.0, columns=400):
     symmetricDifference = _symmetricDifference(stone, spheres)
     boundCentre, boundRadius = enclosingSphere(principalSpheres)
     return {
-        "sphereCount": int(sphereCount),
+        "sphereCount": len(spheres),
         "spheres": principalSpheres,
         "density": density,
         "mass": properties["mass"],
@@ -444,7 +490,8 @@ def loadShapeLibrary(path=DEFAULT_LIBRARY):
     """The stored shape library (shapes/library.json) with arrays as numpy arrays.
 
     Every stone is stored at unit sieve size in its own principal axes; each cluster level ("coarse": 7-16
-    spheres, "fine": 29-45 spheres) in the principal axes of its sphere union at unit density.
+    spheres, "fine": 29-45 spheres, "angular": corner spheres and inscribed fill, 28-55 spheres) in the principal
+    axes of its sphere union at unit density.
     """
     with open(path) as handle:
         library = json.load(handle)

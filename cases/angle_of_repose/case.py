@@ -91,8 +91,6 @@ class AngleOfRepose(Case):
         problems = []
         if p["material"] == "wheat" and p["particle_shape"] != "sphere":
             problems.append("material = \"wheat\" is spheres only (particle_shape = \"sphere\")")
-        if p["base_radius"] > 0.0 and p["particle_shape"] != "sphere":
-            problems.append("base_radius > 0 removes spheres only (particle_shape = \"sphere\")")
         return problems
 
     def postprocess(self, p, out):

@@ -156,7 +156,8 @@ O.dt = p["dem_dt"] if shape == "sphere" else p["cluster_dt"]
 
 # 5. Discharge and rest: the run goes on in spans of rest_check_s until the hopper is empty and every particle moves
 #    slower than rest_speed, or for duration_s at most. Recorded every record_every_s. With a fixed base (base_radius
-#    > 0) the particles that fell over its edge are removed at each record: a centre below the base's top (z < d_base)
+#    > 0) the particles that fell over its edge are removed at each record: a centre (a cluster's centre of mass)
+#    below the base's top (z < d_base)
 #    is on the floor or caught between the outermost base spheres (on the base a sphere of 3/4 of the base spheres'
 #    diameter in a hole of three of them rests with its centre 1.16 d_base high); their energy then (potential +
 #    kinetic) is kept in left_energy for the energy balance.
@@ -172,18 +173,20 @@ left_energy, left_mass = [0.0], [0.0]
 
 
 def remove_fallen():
-    """Removes the spheres that fell over the fixed base's edge (a no-op without a base)."""
+    """Removes the particles (spheres, or clusters with their members) that fell over the fixed base's edge (a no-op
+    without a base)."""
     if p["base_radius"] <= 0.0:
         return
     for i in list(particle_ids):
         b = O.bodies[i]
         s = b.state
         if s.pos[2] < base_top:  # on the floor or caught in the base's rim: only beyond its edge
-            spin = sum(s.inertia[k] * s.angVel[k] ** 2 for k in range(3))
-            left_energy[0] += s.mass * (GRAVITY * s.pos[2] + 0.5 * s.vel.squaredNorm()) + 0.5 * spin
+            spin = s.ori.conjugate() * s.angVel  # in the principal axes, where the inertia is diagonal
+            rotation = sum(s.inertia[k] * spin[k] ** 2 for k in range(3))
+            left_energy[0] += s.mass * (GRAVITY * s.pos[2] + 0.5 * s.vel.squaredNorm()) + 0.5 * rotation
             left_mass[0] += s.mass
             particle_ids.remove(i)
-            O.bodies.erase(i)
+            O.bodies.erase(i, True)  # a cluster's members with it
 
 
 def floor_force():

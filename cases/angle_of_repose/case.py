@@ -79,9 +79,10 @@ def plot_pile(path, title, measured, reference_deg, reference_label="thesis"):
 
 def measure_pile(spheres, dem, p):
     """repose_angle of a run's final spheres with its parameters p and dem_info.json dem, heights counted from the fixed
-    base's top (its spheres have the mean diameter, dem.py), without a base from the floor."""
+    base's top (base_top_m: its spheres' diameter, dem.py), without a base from the floor."""
     spheres = np.array(spheres, dtype=float)
-    spheres[:, 2] -= dem["mean_diameter_m"] if p["base_radius"] > 0.0 else 0.0
+    # runs before base_top_m was recorded had spheres only, whose base spheres have the mean diameter
+    spheres[:, 2] -= dem.get("base_top_m", dem["mean_diameter_m"]) if p["base_radius"] > 0.0 else 0.0
     return repose_angle(spheres, p["profile_sectors"], p["profile_bin_diameters"] * dem["mean_diameter_m"],
                         p["profile_lower_fraction"], p["profile_upper_fraction"])
 

@@ -71,9 +71,10 @@ def funnel_half_width(z):
 
 
 # 3. Ballast: sizes drawn from the middle of the EN 13450 band (thesis Table 2.1) until the mass reaches ballast_mass_kg,
-#    sphere diameter = sieve size; clusters of the shape library ("coarse" 7-16 or "fine" 29-45 spheres, §5.3.4) at
-#    their sieve size, randomly turned. They start at rest on a jittered lattice filling the hopper from the aperture
-#    up, and flow out as soon as the run starts (no gate: the thesis' hopper holds no stored material either).
+#    sphere diameter = sieve size; clusters of the shape library ("coarse" 7-16, "fine" 29-45 spheres, §5.3.4; or
+#    "angular") at their sieve size, randomly turned. They start at rest on a jittered lattice filling the hopper from
+#    the aperture up, and flow out as soon as the run starts (no gate: the thesis' hopper holds no stored material
+#    either).
 #    Wheat: diameters uniform in [grain_diameter_min, grain_diameter_max] (Ullrich 2022 Table 5.1: 3-5 mm).
 if shape == "sphere":
     diameters, mass = [], 0.0
@@ -102,9 +103,10 @@ while len(centres) < count:
                 centres.append((x + rng.uniform(-jitter, jitter), y + rng.uniform(-jitter, jitter), z))
     z += spacing
 order = rng.permutation(count)  # sizes spread over the lattice, not sorted by height
-# The fixed base (base_radius > 0): a disc of fixed spheres of the mean diameter, touching on a hexagonal lattice, lying
-# on the floor, as a base with glued grains; spheres without rolling resistance roll off a flat base for ever, its first
-# layer included. What passes the base's edge falls to the floor and leaves the scene (step 5).
+# The fixed base (base_radius > 0): a disc of fixed spheres of the particles' mean diameter (of their enclosing spheres
+# for clusters), touching on a hexagonal lattice, lying on the floor, as a base with glued grains; spheres without
+# rolling resistance roll off a flat base for ever, its first layer included. What passes the base's edge falls to the
+# floor and leaves the scene (step 5).
 base_ids, base_top = [], 0.0
 if p["base_radius"] > 0.0:
     d_base = base_top = 2.0 * float(reaches.mean())
@@ -156,8 +158,8 @@ O.dt = p["dem_dt"] if shape == "sphere" else p["cluster_dt"]
 
 # 5. Discharge and rest: the run goes on in spans of rest_check_s until the hopper is empty and every particle moves
 #    slower than rest_speed, or for duration_s at most. Recorded every record_every_s. With a fixed base (base_radius
-#    > 0) the particles that fell over its edge are removed at each record: a centre (a cluster's centre of mass)
-#    below the base's top (z < d_base)
+#    > 0) the particles that fell over its edge are removed at each record: a centre (a cluster's centre of
+#    mass) below the base's top (z < d_base)
 #    is on the floor or caught between the outermost base spheres (on the base a sphere of 3/4 of the base spheres'
 #    diameter in a hole of three of them rests with its centre 1.16 d_base high); their energy then (potential +
 #    kinetic) is kept in left_energy for the energy balance.
@@ -231,6 +233,7 @@ masses = np.array([O.bodies[i].state.mass for i in particle_ids])
 dem.save(arrays={"spheres": spheres, "particle_centres": centres_now, "particle_masses": masses},
          particles=count, spheres=len(members), ballast_mass_kg=total_mass, simulated_s=O.time, material=p["material"],
          left_particles=count - len(particle_ids), left_mass_kg=left_mass[0], base_spheres=len(base_ids),
+         base_top_m=base_top,
          initial_energy_j=initial_energy,
          at_rest=bool(dem.last["hopper_mass"] == 0.0 and dem.last["max_speed"] < p["rest_speed"]),
          mean_diameter_m=float(2.0 * reaches.mean()) if shape == "sphere" else float(

@@ -7,8 +7,8 @@ Pipeline (Irazábal 2017 §5.9, with a mesh-free integration instead of a tetrah
   -> common radius inflation that minimises the symmetric-difference volume with the stone
   -> exact-in-z column integration of the sphere union (overlaps counted once): volume, centre of mass,
      inertia -> spheres expressed in principal axes -> enclosing sphere (eqs. 5.58-5.63, corrected).
-The angular construction (fitAngularCluster) replaces the first two steps by a sphere in every corner and an
-inscribed fill, without growth.
+The angular construction (fitAngularCluster) puts a sphere in every corner before the greedy cover and leaves out
+the inflation.
 
 Units: whatever the caller uses (the shape library is stored at unit sieve size, see sieveSize()).
 """
@@ -329,32 +329,41 @@ def fitSphereCluster(stone, sphereCount, candidateResolution=24, sampleResolutio
 
 
 def cornerSpheres(stone, radius):
-    """One sphere (k, 4) at each hull vertex, tangent to every face that meets there: the corner rounded with `radius`
-    (less where the stone has no room for it: then the largest sphere inscribed at that centre)."""
-    if not radius > 0.0:
-        raise ValueError("cornerSpheres: the corner radius must be positive, got %r" % (radius,))
+    """One sphere (k, 4) per hull vertex, its centre `radius` inside the face planes through the vertex: exactly where
+    three faces meet, in the least-squares sense where more do (no sphere touches four general planes). Its radius is
+    the distance from that centre to the nearest face, at most `radius`: every corner sphere touches a face near its
+    corner, and none reaches beyond the surface."""
+    if not (math.isfinite(radius) and radius > 0.0):
+        raise ValueError("cornerSpheres: the corner radius must be positive and finite, got %r" % (radius,))
     v, t = stone.vertices, stone.triangles
     normals = np.cross(v[t[:, 1]] - v[t[:, 0]], v[t[:, 2]] - v[t[:, 0]])
     normals /= np.linalg.norm(normals, axis=1)[:, None]
     spheres = []
     for i in range(len(v)):
         faces = np.unique(np.round(normals[(t == i).any(axis=1)], 9), axis=0)  # coplanar triangles: one face
-        # the centre lies `radius` inside every face plane through the vertex: n_f . (c - v_i) = -radius
+        # n_f . (c - v_i) = -radius for every face through the vertex
         centre = v[i] + np.linalg.lstsq(faces, -radius * np.ones(len(faces)), rcond=None)[0]
         spheres.append([*centre, min(radius, stone.signedDistance(centre)[0])])
-    return np.array(spheres)
+    spheres = np.array(spheres)
+    if np.any(spheres[:, 3] <= 0.0):
+        raise ValueError("cornerSpheres: a corner radius of %g leaves some corner centres outside the stone; take a "
+                         "smaller one" % radius)
+    return spheres
 
 
 def fitAngularCluster(stone, fillCount, cornerRadius=0.08, candidateResolution=24, sampleResolution=40):
-    """Spheres (k, 4) for an angular stone: a sphere in every corner (cornerSpheres) and `fillCount` maximal inscribed
-    spheres covering the rest of the interior (the greedy cover of fitSphereCluster), none grown beyond the surface.
+    """Spheres (k, 4) for an angular stone: the corner spheres (cornerSpheres) and `fillCount` >= 1 maximal inscribed
+    spheres covering the rest of the interior (fitSphereCluster's greedy cover), none grown beyond the surface.
 
-    Every sphere touching a face is tangent to its plane, so a stone lying on a face rests on its corner spheres and
-    on the fill spheres of that face, as the stone rests on its face; and it rolls over a sharp corner, not over a
-    large sphere. fitSphereCluster's common inflation makes the largest sphere bulge furthest beyond the faces it
-    touches and rounds the corners: such clusters rock and roll where the stone lies still
-    (cases/angle_of_repose/README.md). The price is volume: the union under-fills the edges between corners.
+    fitSphereCluster's common inflation makes the largest sphere bulge furthest beyond the faces it touches and rounds
+    the corners with large spheres: such clusters rock on that sphere and roll over their corners where the stone lies
+    still (cases/angle_of_repose/README.md). Here nothing bulges, and the corners are small spheres at the stone's
+    extremities, over which the cluster tips as the stone does. Where more than three faces meet, the corner sphere
+    stands back from some of them, so a face rests on fewer points than it has corners. The price is volume: the union
+    under-fills the edges between the corners.
     """
+    if fillCount < 1:
+        raise ValueError("fitAngularCluster: fillCount must be >= 1, got %d" % fillCount)
     corners = cornerSpheres(stone, cornerRadius)
     centres, radii = _inscribedCover(stone, fillCount, candidateResolution, sampleResolution, given=corners)
     return np.vstack([corners, np.column_stack([centres, radii])])
@@ -362,7 +371,7 @@ def fitAngularCluster(stone, fillCount, cornerRadius=0.08, candidateResolution=2
 
 def buildCluster(stone, sphereCount=None, density=1.0, columns=400, spheres=None):
     """A sphere cluster for `stone` with its mass properties, in the principal axes of the sphere union: of
-    fitSphereCluster(stone, sphereCount), or of the given `spheres` (k, 4) in the stone's frame (e.g. fitAngularCluster).
+    fitSphereCluster(stone, sphereCount), or of the given `spheres` (k, 4) in the stone's frame (fitAngularCluster).
 
     Returns a dict: spheres (k, 4) in principal axes about the centre of mass; mass, volume, principal inertia
     (ascending, density-weighted); rotation (columns = principal axes in the stone frame) and centreOfMass
@@ -371,6 +380,8 @@ def buildCluster(stone, sphereCount=None, density=1.0, columns=400, spheres=None
     integrationAccuracy = largest relative change of volume and principal moments between `columns` and
     columns/2 (an estimate of the column-integration error at `columns`, conservative for a convergent rule).
     """
+    if (sphereCount is None) == (spheres is None):
+        raise ValueError("buildCluster: give either sphereCount (fitSphereCluster) or spheres, not both or neither")
     if spheres is None:
         spheres = fitSphereCluster(stone, sphereCount)
     spheres = np.asarray(spheres, dtype=float)

@@ -9,8 +9,8 @@ Each stone is the convex hull of random points near an ellipsoid (fixed seeds), 
 principal axes (x = long axis) and scaled to unit sieve size (smallest square aperture, see
 ballast_clusters.sieveSize). Cluster levels follow the thesis (Irazábal 2017 §5.3.4): "coarse" 7-16 and
 "fine" 29-45 spheres per stone; "angular" puts a small sphere in every corner of the stone and fills the rest with
-inscribed spheres (28-55 spheres), so that the cluster lies on its faces and tips over sharp corners as the stone
-does. Runtime: about two minutes.
+inscribed spheres, growing none (28-55 spheres), so that nothing bulges out of a face and the cluster tips over small
+corners as the stone does. Runtime: about one minute.
 """
 
 import json
@@ -39,8 +39,8 @@ SHAPES = [
 ]
 
 
-# The "angular" level: a sphere of this radius (in sieve sizes) in every corner of the hull, tangent to its faces, and
-# ANGULAR_FILL inscribed spheres filling the rest (ballast_clusters.fitAngularCluster): 28-55 spheres per stone.
+# The "angular" level: a sphere of at most this radius (in sieve sizes) in every corner of the hull, and ANGULAR_FILL
+# inscribed spheres filling the rest (ballast_clusters.fitAngularCluster): 28-55 spheres per stone.
 ANGULAR_CORNER_RADIUS = 0.08
 ANGULAR_FILL = 20
 
@@ -142,6 +142,7 @@ def main():
               + "  ".join("%s %2d spheres volume error %+.1f%% (sym. diff %.1f%%)"
                           % (level, clusters[level]["sphereCount"], 100 * clusters[level]["volumeError"],
                              100 * clusters[level]["symmetricDifference"]) for level in ("coarse", "fine", "angular")))
+
 
 if __name__ == "__main__":
     main()

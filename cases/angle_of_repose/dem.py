@@ -159,8 +159,8 @@ O.dt = p["dem_dt"] if shape == "sphere" else p["cluster_dt"]
 # 5. Discharge and rest: the run goes on in spans of rest_check_s until the hopper is empty and every particle moves
 #    slower than rest_speed, or for duration_s at most. Recorded every record_every_s. With a fixed base (base_radius
 #    > 0) the particles that fell over its edge are removed at each record: a centre (a cluster's centre of
-#    mass) below the base's top (z < d_base)
-#    is on the floor or caught between the outermost base spheres (on the base a sphere of 3/4 of the base spheres'
+#    mass) below the base's top (z < d_base), within d_base of the base's edge or beyond it, is on the floor or
+#    caught between the outermost base spheres (on the base a sphere of 3/4 of the base spheres'
 #    diameter in a hole of three of them rests with its centre 1.16 d_base high); their energy then (potential +
 #    kinetic) is kept in left_energy for the energy balance.
 def in_hopper_mass():
@@ -182,7 +182,8 @@ def remove_fallen():
     for i in list(particle_ids):
         b = O.bodies[i]
         s = b.state
-        if s.pos[2] < base_top:  # on the floor or caught in the base's rim: only beyond its edge
+        # on the floor or caught in the base's rim; not a small stone wedged between the base's spheres inside it
+        if s.pos[2] < base_top and math.hypot(s.pos[0], s.pos[1]) > p["base_radius"] - base_top:
             spin = s.ori.conjugate() * s.angVel  # in the principal axes, where the inertia is diagonal
             rotation = sum(s.inertia[k] * spin[k] ** 2 for k in range(3))
             left_energy[0] += s.mass * (GRAVITY * s.pos[2] + 0.5 * s.vel.squaredNorm()) + 0.5 * rotation

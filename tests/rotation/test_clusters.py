@@ -163,7 +163,7 @@ class AngularClusters(unittest.TestCase):
     def test_bad_requests_are_refused(self):
         stone = bc.ConvexStone(self.CUBE)
         with self.assertRaises(ValueError):
-            bc.fitAngularCluster(stone, 0)
+            bc.fitAngularCluster(stone, 0, 0.2)
         with self.assertRaises(ValueError):
             bc.buildCluster(stone)  # neither a sphere count nor spheres
         with self.assertRaises(ValueError):

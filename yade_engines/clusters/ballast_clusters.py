@@ -351,7 +351,7 @@ def cornerSpheres(stone, radius):
     return spheres
 
 
-def fitAngularCluster(stone, fillCount, cornerRadius=0.08, candidateResolution=24, sampleResolution=40):
+def fitAngularCluster(stone, fillCount, cornerRadius, candidateResolution=24, sampleResolution=40):
     """Spheres (k, 4) for an angular stone: the corner spheres (cornerSpheres) and `fillCount` >= 1 maximal inscribed
     spheres covering the rest of the interior (fitSphereCluster's greedy cover), none grown beyond the surface.
 

@@ -5,7 +5,8 @@
 # Usage (repository root, on the GPU machine): benchmarks/gpu/run_sleeper_device.sh OUTDIR [runner options ...]
 #   e.g. ... OUTDIR --set stones=0 --set bed_width_m=1.0 --set cycles=100      (the seed's scene, README)
 # CASE=NAME runs another case of cases/ whose DEM side has a standalone driver (dem_driver = "standalone"), the same
-# way: CASE=steel_sheet (cases/steel_sheet/README.md, "On the GPU machine").
+# way: CASE=steel_sheet (cases/steel_sheet/README.md, "On the GPU machine"); CASE=angle_of_repose with
+# --set particle_shape=polyhedron (cases/angle_of_repose/README.md, "Polyhedra").
 # Environment: RUNTIME_ARCHIVE (default build/device-runtime.tgz), RUNTIME_DIR (where it is unpacked, default a
 # folder under /tmp), RAILCOSIM_CACHE (where bed files are kept, default OUTDIR/cache), THREADS (OpenMP threads of
 # the DEM process, default the cores), PYTHON (default python3). Writes OUTDIR/run (the results
@@ -82,8 +83,12 @@ if [ -n "${RESUME:-}" ]; then
   fi
   target=(--resume "$partial")
 fi
-${PYTHON:-python3} "$root/tools/run_case.py" "$root/cases/${CASE:-sleeper_on_ballast}" "${target[@]}" \
-  --set dem_driver=standalone --set polyhedra_backend=cuda --set "dem_threads=${THREADS:-$(nproc)}" "$@"
+case_dir=$root/cases/${CASE:-sleeper_on_ballast}
+# a case whose YADE side has a standalone twin chooses it by dem_driver; angle_of_repose by particle_shape = polyhedron
+driver=()
+if grep -q '^dem_driver *=' "$case_dir/case.toml"; then driver=(--set dem_driver=standalone); fi
+${PYTHON:-python3} "$root/tools/run_case.py" "$case_dir" "${target[@]}" \
+  "${driver[@]}" --set polyhedra_backend=cuda --set "dem_threads=${THREADS:-$(nproc)}" "$@"
 code=$?
 set -e
 echo "runner exit $code after $(( $(date +%s) - start )) s" | tee -a "$out/device.txt"

@@ -2,6 +2,7 @@
 thesis' 40° for ballast; see README.md)."""
 import math
 import os
+import sys
 
 import numpy as np
 
@@ -92,7 +93,23 @@ class AngleOfRepose(Case):
         problems = []
         if p["material"] == "wheat" and p["particle_shape"] != "sphere":
             problems.append("material = \"wheat\" is spheres only (particle_shape = \"sphere\")")
+        if p["particle_shape"] == "polyhedron" and p["base_radius"] > 0.0:
+            problems.append("particle_shape = \"polyhedron\" has no fixed base (the polyhedra library has no fixed "
+                            "bodies): base_radius must be 0")
+        if p["particle_shape"] != "polyhedron" and p["hopper_gate_s"] > 0.0:
+            problems.append("hopper_gate_s > 0 (a gate) is for particle_shape = \"polyhedron\" only: dem.py's hopper "
+                            "has none")
+        if p["particle_shape"] == "polyhedron" and p["friction_model"] != "constant":
+            problems.append("particle_shape = \"polyhedron\" has constant friction only (friction_model = \"constant\")")
         return problems
+
+    def dem_command(self, p, endpoint, out):
+        """dem.py on YADE, or polyhedra_dem.py (particle_shape = "polyhedron": the polyhedra library without YADE, the
+        GPU machine's path) on this Python with dem_threads OpenMP threads."""
+        if p["particle_shape"] != "polyhedron":
+            return super().dem_command(p, endpoint, out)
+        return ["env", f"OMP_NUM_THREADS={p['dem_threads']}", sys.executable,
+                os.path.join(p["case_dir"], "polyhedra_dem.py"), os.path.join(out, "parameters.json"), endpoint, out]
 
     def postprocess(self, p, out):
         dem = results.read_json(os.path.join(out, "dem_info.json"))
@@ -118,6 +135,7 @@ class AngleOfRepose(Case):
                        if np.all(np.isfinite(energy)) else math.inf)  # a run that blew up
         label = ("wheat, μ = %g" % p["friction"] if p["material"] == "wheat" else
                  "spheres, η_r = %g" % p["rolling_friction"] if p["particle_shape"] == "sphere" else
+                 "polyhedra, r_d = %g size" % p["dilation_fraction"] if p["particle_shape"] == "polyhedron" else
                  f"{p['cluster_level']} clusters" + (f", SDF γ = {p['friction_exponent']:g}"
                                                 if p["friction_model"] == "stress_dependent" else ""))
         plot_pile(os.path.join(out, "pile_profile.png"), f"Angle of repose, {label}", measured, reference,
@@ -145,9 +163,17 @@ class AngleOfRepose(Case):
             {"name": "kinetic + potential energy above its initial value / energy released", "value": energy_gain,
              "limit": p["energy_tolerance"]},
         ]
-        if p["particle_shape"] == "sphere":
-            # Spheres stop on their rolling friction. Clusters have none (T2): a coarse stone rolls on its round
-            # members across the bare floor for seconds (README), so a cluster run ends at duration_s.
+        if p["hopper_gate_s"] > 0.0:
+            # A closed gate holds everything: no ballast may have left the hopper (centres below the aperture) before
+            # it opens; a stone through it is a gate that leaks (its triangles' winding, a step too long for them).
+            before = time < p["hopper_gate_s"] - 1e-9
+            leaked = (float(np.max(dem["ballast_mass_kg"] - series["hopper_mass"][before])) / dem["ballast_mass_kg"]
+                      if before.any() else 0.0)
+            checks.append({"name": "ballast out of the hopper before the gate opened (fraction)", "value": leaked,
+                           "limit": 0.0})
+        if p["particle_shape"] in ("sphere", "polyhedron"):
+            # Spheres stop on their rolling friction, polyhedra on their faces. Clusters have none (T2): a coarse stone
+            # rolls on its round members across the bare floor for seconds (README), so a cluster run ends at duration_s.
             checks.append({"name": "run ended at rest (0 = yes)", "value": 0.0 if dem["at_rest"] else 1.0,
                            "limit": 0.0})
         return {

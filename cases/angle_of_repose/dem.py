@@ -17,9 +17,10 @@ p = dem.parameters
 shape = p["particle_shape"]
 wheat = p["material"] == "wheat"
 GRAVITY = 9.81
-sys.path.insert(0, os.path.join(os.environ["RAILCOSIM_ROOT"], "yade_engines", "clusters"))
+sys.path[:0] = [os.path.join(os.environ["RAILCOSIM_ROOT"], "yade_engines", "clusters"), p["case_dir"]]
 import ballast_clusters  # noqa: E402
 import pack_ballast  # noqa: E402
+from rig import Hopper, base_lattice  # noqa: E402
 
 rng = np.random.default_rng(p["seed"])
 
@@ -59,15 +60,8 @@ else:
 #    that holds the initial lattice. The hopper's axis is the z axis. With base_radius > 0 the pile forms on a base of
 #    that radius (the fixed-base test, e.g. ISO 4324; step 3).
 floor = O.bodies.append(utils.wall(position=0.0, axis=2, sense=1, material=floor_mat))
-a, z0 = p["hopper_aperture"], p["drop_height"]
-slope = math.radians(p["hopper_wall_angle_deg"])
-z1 = z0 + p["hopper_height"]
-top_half = 0.5 * a + p["hopper_height"] / math.tan(slope)
-
-
-def funnel_half_width(z):
-    """Half the width of the hopper's square section at height z."""
-    return 0.5 * a + (min(z, z1) - z0) / math.tan(slope)
+hopper = Hopper(p)  # rig.py: the scene's geometry, shared with polyhedra_dem.py
+z0 = hopper.z0
 
 
 # 3. Ballast: sizes drawn from the middle of the EN 13450 band (thesis Table 2.1) until the mass reaches ballast_mass_kg,
@@ -90,19 +84,7 @@ else:
                                                   level=p["cluster_level"], density=p["particle_density"])
     reaches = np.array([s["enclosingRadius"] for s in stones])
 count = len(reaches)
-spacing = 2.0 * 1.05 * reaches.max()
-jitter = 0.02 * spacing
-centres, z = [], z0 + 0.5 * spacing
-while len(centres) < count:
-    half = funnel_half_width(z) - 0.5 * spacing / math.sin(slope) if z < z1 else top_half - 0.5 * spacing
-    n = max(1, int(2.0 * half / spacing) + 1)
-    offsets = (np.arange(n) - 0.5 * (n - 1)) * spacing
-    for x in offsets:
-        for y in offsets:
-            if len(centres) < count:
-                centres.append((x + rng.uniform(-jitter, jitter), y + rng.uniform(-jitter, jitter), z))
-    z += spacing
-order = rng.permutation(count)  # sizes spread over the lattice, not sorted by height
+centres, bin_top = hopper.lattice(reaches, rng)
 # The fixed base (base_radius > 0): a disc of fixed spheres of the particles' mean diameter (of their enclosing spheres
 # for clusters), touching on a hexagonal lattice, lying on the floor, as a base with glued grains; spheres without
 # rolling resistance roll off a flat base for ever, its first layer included. What passes the base's edge falls to the
@@ -110,30 +92,19 @@ order = rng.permutation(count)  # sizes spread over the lattice, not sorted by h
 base_ids, base_top = [], 0.0
 if p["base_radius"] > 0.0:
     d_base = base_top = 2.0 * float(reaches.mean())
-    rows = int(p["base_radius"] / (0.5 * math.sqrt(3.0) * d_base)) + 1
-    for j in range(-rows, rows + 1):
-        for i in range(-rows - 1, rows + 2):
-            x, y = (i + 0.5 * (j % 2)) * d_base, j * 0.5 * math.sqrt(3.0) * d_base
-            if math.hypot(x, y) <= p["base_radius"] - 0.5 * d_base:
-                base_ids.append(O.bodies.append(utils.sphere((x, y, 0.5 * d_base), 0.5 * d_base, fixed=True,
-                                                             material=floor_mat)))
+    for x, y in base_lattice(p["base_radius"], d_base):
+        base_ids.append(O.bodies.append(utils.sphere((x, y, 0.5 * d_base), 0.5 * d_base, fixed=True,
+                                                     material=floor_mat)))
 particle_ids = []
-for k, centre in zip(order, centres):
+for k, centre in enumerate(centres):
     if shape == "sphere":
-        particle_ids.append(O.bodies.append(utils.sphere(centre, float(reaches[k]), material=ballast)))
+        particle_ids.append(O.bodies.append(utils.sphere(tuple(centre), float(reaches[k]), material=ballast)))
     else:
-        particle_ids.append(pack_ballast.addClusterStone(stones[k], centre, O.materials[ballast]))
-bin_top = max(c[2] for c in centres) + spacing
-
-corners = [(-1, -1), (1, -1), (1, 1), (-1, 1)]
-for k in range(4):
-    (sx0, sy0), (sx1, sy1) = corners[k], corners[(k + 1) % 4]
-    low = [Vector3(sx0 * 0.5 * a, sy0 * 0.5 * a, z0), Vector3(sx1 * 0.5 * a, sy1 * 0.5 * a, z0)]
-    high = [Vector3(sx0 * top_half, sy0 * top_half, z1), Vector3(sx1 * top_half, sy1 * top_half, z1)]
-    top = [Vector3(c[0], c[1], bin_top) for c in high]
-    for quad in ((low[0], low[1], high[1], high[0]), (high[0], high[1], top[1], top[0])):
-        O.bodies.append(utils.facet((quad[0], quad[1], quad[2]), material=hopper_mat, wire=True))
-        O.bodies.append(utils.facet((quad[0], quad[2], quad[3]), material=hopper_mat, wire=True))
+        particle_ids.append(pack_ballast.addClusterStone(stones[k], tuple(centre), O.materials[ballast]))
+for quad in hopper.walls(bin_top):
+    quad = [Vector3(*c) for c in quad]
+    O.bodies.append(utils.facet((quad[0], quad[1], quad[2]), material=hopper_mat, wire=True))
+    O.bodies.append(utils.facet((quad[0], quad[2], quad[3]), material=hopper_mat, wire=True))
 
 total_mass = sum(O.bodies[i].state.mass for i in particle_ids)
 spheres_per_particle = sum(1 for b in O.bodies if b.isClumpMember) / count if shape == "cluster" else 1

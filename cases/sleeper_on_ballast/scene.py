@@ -60,31 +60,6 @@ CLUSTER_BED_FORMAT = 2                # version of the cluster beds' clusters (p
 # ---------------------------------------------------------------------------------------------------
 # Shapes: the library's 8 stones (unit sieve size, principal axes) as dilated polyhedra.
 # ---------------------------------------------------------------------------------------------------
-def _shape_measures(vertices, triangles):
-    """Feret diameter (largest vertex distance), volume, area and integral of mean curvature of a convex core:
-    the Steiner formula V(r) = V + A r + M r^2 + 4/3 pi r^3 gives the dilated volume (Ullrich 2022 eq. 2.5),
-    with M = 1/2 sum over edges of length x exterior dihedral angle."""
-    v = np.asarray(vertices, float)
-    t = np.asarray(triangles, int)
-    feret = max(float(np.max(np.linalg.norm(v - p, axis=1))) for p in v)
-    a, b, c = v[t[:, 0]], v[t[:, 1]], v[t[:, 2]]
-    cross = np.cross(b - a, c - a)
-    area = 0.5 * float(np.sum(np.linalg.norm(cross, axis=1)))
-    normals = cross / np.linalg.norm(cross, axis=1)[:, None]
-    volume = float(np.sum(np.einsum("ij,ij->i", a, np.cross(b, c)))) / 6.0
-    faces_of_edge = {}
-    for face, tri in enumerate(t):
-        for k in range(3):
-            edge = tuple(sorted((tri[k], tri[(k + 1) % 3])))
-            faces_of_edge.setdefault(edge, []).append(face)
-    curvature = 0.0
-    for (i, j), faces in faces_of_edge.items():
-        if len(faces) == 2:
-            cosine = float(np.clip(np.dot(normals[faces[0]], normals[faces[1]]), -1.0, 1.0))
-            curvature += 0.5 * np.linalg.norm(v[i] - v[j]) * math.acos(cosine)
-    return feret, abs(volume), area, curvature
-
-
 _TEMPLATES = {}
 
 
@@ -117,7 +92,7 @@ def library(triangles_per_stone=0):
             vertices, triangles = shape["vertices"], shape["triangles"]
             if triangles_per_stone > 0:
                 vertices, triangles = reduced_hull(vertices, triangles, triangles_per_stone)
-            feret, volume, area, curvature = _shape_measures(vertices, triangles)
+            feret, volume, area, curvature = ballast_clusters.steinerMeasures(vertices, triangles)
             templates.append({"name": shape["name"], "vertices": vertices, "triangles": triangles,
                               "clusters": shape["clusters"], "feret": feret, "volume": volume, "area": area,
                               "curvature": curvature})

@@ -106,6 +106,40 @@ class PolyhedronAndEnclosingSphere(unittest.TestCase):
             self.assertGreaterEqual(radius, 0.5 * spans.max() - 1e-12)
 
 
+class DilatedPolyhedra(unittest.TestCase):
+    """Steiner's measures of a convex stone and the core scale that keeps a dilated stone's volume, against the
+    rounded box's volume summed part by part: the box, a slab on each face, a quarter cylinder along each edge and
+    an eighth of a ball at each corner."""
+
+    @staticmethod
+    def rounded_box_volume(a, b, c, r):
+        return (a * b * c + 2 * r * (a * b + b * c + c * a) + math.pi * r * r * (a + b + c)
+                + 4.0 / 3.0 * math.pi * r ** 3)
+
+    def test_box_measures_match_the_rounded_box(self):
+        a, b, c, r = 2.0, 1.0, 3.0, 0.25
+        stone = bc.ConvexStone(np.array([[x, y, z] for x in (0, a) for y in (0, b) for z in (0, c)], float))
+        feret, volume, area, curvature = bc.steinerMeasures(stone.vertices, stone.triangles)
+        self.assertAlmostEqual(feret, math.sqrt(a * a + b * b + c * c), places=12)
+        # the triangulated faces' diagonals are flat edges: they must add no curvature
+        steiner = volume + area * r + curvature * r * r + 4.0 / 3.0 * math.pi * r ** 3
+        self.assertAlmostEqual(steiner, self.rounded_box_volume(a, b, c, r), places=10)
+
+    def test_core_scale_keeps_the_volume(self):
+        a, b, c, r = 2.0, 1.0, 3.0, 0.1
+        stone = bc.ConvexStone(np.array([[x, y, z] for x in (0, a) for y in (0, b) for z in (0, c)], float))
+        k = bc.dilatedCoreScale(stone.vertices, stone.triangles, r)
+        self.assertTrue(0.0 < k < 1.0)
+        # bisection to 2^-60 in c: the volume matches to rounding
+        self.assertAlmostEqual(self.rounded_box_volume(k * a, k * b, k * c, r), a * b * c, places=10)
+
+    def test_core_scale_refuses_bad_dilations(self):
+        stone = bc.ConvexStone(np.array([[x, y, z] for x in (0, 1) for y in (0, 1) for z in (0, 1)], float))
+        for bad in (0.0, -0.1, float("nan"), float("inf"), 0.7):  # 0.7: a ball of 1.44 outweighs the unit cube
+            with self.assertRaises(ValueError):
+                bc.dilatedCoreScale(stone.vertices, stone.triangles, bad)
+
+
 class ClusterConstruction(unittest.TestCase):
     def test_cluster_is_in_principal_axes_and_fills_the_stone(self):
         stone = bc.randomConvexStone(7, (1.0, 0.75, 0.6), 16, 0.12)

@@ -25,6 +25,53 @@ from scipy.spatial import ConvexHull
 # --------------------------------------------------------------------------------------------------
 
 
+def steinerMeasures(vertices, triangles):
+    """Feret diameter (largest vertex distance), volume, area and integral of mean curvature of a convex core:
+    the Steiner formula V(r) = V + A r + M r^2 + 4/3 pi r^3 gives the dilated volume (Ullrich 2022 eq. 2.5),
+    with M = 1/2 sum over edges of length x exterior dihedral angle."""
+    v = np.asarray(vertices, float)
+    t = np.asarray(triangles, int)
+    feret = max(float(np.max(np.linalg.norm(v - p, axis=1))) for p in v)
+    a, b, c = v[t[:, 0]], v[t[:, 1]], v[t[:, 2]]
+    cross = np.cross(b - a, c - a)
+    area = 0.5 * float(np.sum(np.linalg.norm(cross, axis=1)))
+    normals = cross / np.linalg.norm(cross, axis=1)[:, None]
+    volume = float(np.sum(np.einsum("ij,ij->i", a, np.cross(b, c)))) / 6.0
+    faces_of_edge = {}
+    for face, tri in enumerate(t):
+        for k in range(3):
+            edge = tuple(sorted((tri[k], tri[(k + 1) % 3])))
+            faces_of_edge.setdefault(edge, []).append(face)
+    curvature = 0.0
+    for (i, j), faces in faces_of_edge.items():
+        if len(faces) == 2:
+            cosine = float(np.clip(np.dot(normals[faces[0]], normals[faces[1]]), -1.0, 1.0))
+            curvature += 0.5 * np.linalg.norm(v[i] - v[j]) * math.acos(cosine)
+    return feret, abs(volume), area, curvature
+
+
+def dilatedCoreScale(vertices, triangles, relativeDilation):
+    """c such that the convex stone (vertices, triangles) scaled by c about the origin and dilated by a ball of radius
+    relativeDilation has the stone's own volume: the root in (0, 1) of V c^3 + A c^2 r + M c r^2 + 4/3 pi r^3 = V
+    (Steiner's formula, steinerMeasures), found by bisection since the left side grows with c. The stone's units are
+    the dilation's (the shape library: unit sieve size)."""
+    _, volume, area, curvature = steinerMeasures(vertices, triangles)
+    r = float(relativeDilation)
+    if not r > 0.0 or not math.isfinite(r):
+        raise ValueError("dilatedCoreScale: the dilation must be positive and finite, got %r" % relativeDilation)
+    if 4.0 / 3.0 * math.pi * r ** 3 >= volume:
+        raise ValueError("dilatedCoreScale: a ball of radius %g alone has at least the stone's volume %g: no core is left"
+                         % (r, volume))
+    low, high = 0.0, 1.0
+    for _ in range(60):  # 2^-60: the double's resolution of c
+        c = 0.5 * (low + high)
+        if volume * c ** 3 + area * c * c * r + curvature * c * r * r + 4.0 / 3.0 * math.pi * r ** 3 > volume:
+            high = c
+        else:
+            low = c
+    return low
+
+
 class ConvexStone:
     """A closed convex triangulated surface: vertices (n,3), outward-oriented triangles (m,3), face planes."""
 

@@ -1,0 +1,181 @@
+# DEM participant of the angle-of-repose case for particle_shape = "polyhedron": the shape library's stones as dilated
+# polyhedra (each hull's core shrunk and rounded by r_d = dilation_fraction x sieve size so that its volume stays;
+# Hertz contacts of the dilation's curvature, Mindlin friction) on the polyhedra library through its C interface
+# (railcosim.polyhedra_driver), without YADE: the GPU machine's path. The rig is dem.py's (rig.py: the same hopper,
+# lattice and floor); the stones are drawn as the clusters are (sampleBallastStones: shape, sieve size, turn), from
+# the same seed; with hopper_gate_s > 0 they settle in the hopper on a sliding gate first (polyhedra only). Differences
+# from dem.py: no fixed base (the library has no fixed bodies: base_radius must be 0), the
+# kinetic energy's rotational part from the undilated hull's principal inertia, the floor's reaction from the
+# library's mean force over each step batch.
+# Run by `railcosim run` as: python3 polyhedra_dem.py PARAMETERS.json ENDPOINT OUTDIR (DEM-only: no endpoint used)
+import math
+import os
+import sys
+import time
+
+import numpy as np
+
+HERE = os.path.dirname(os.path.abspath(__file__))
+ROOT = os.path.dirname(os.path.dirname(HERE))
+sys.path[:0] = [HERE, os.path.join(ROOT, "python"), os.path.join(ROOT, "yade_engines", "clusters")]
+import ballast_clusters  # noqa: E402
+from railcosim import dem as dem_arguments  # noqa: E402  (YADE-free: the participant's arguments)
+from railcosim import polyhedra_driver, results  # noqa: E402
+from rig import Hopper  # noqa: E402
+
+GRAVITY = 9.81
+FLOOR_HALF = 5.0  # m, half the side of the floor's square: the piles of this case spread over less than 1.5 m
+
+p, _, out = dem_arguments.participant_arguments()
+rng = np.random.default_rng(p["seed"])
+hopper = Hopper(p)
+r = p["dilation_fraction"]
+
+# 1. Materials (Irazábal 2017 Tables 6.1, 6.2): ballast and floor share E and ν; μ between stones and against the floor
+#    (the law takes the smaller μ of a pair), a frictionless hopper (§6.2.1); no rolling friction (T2: shape alone).
+young, poisson, restitution = p["particle_young"], p["particle_poisson"], p["restitution"]
+stone_material = (young, poisson, restitution, p["friction"])
+wall_materials = [(young, poisson, restitution, p["floor_friction"]), (young, poisson, restitution, 0.0)]
+
+# 2. Stones: the clusters' draw (shape, sieve size, turn) until the stones' solid volume reaches the mass; each the
+#    library's hull at its sieve size, its core shrunk about the centroid (the origin of the library's principal axes)
+#    and dilated by r_d = r x size so that the dilated stone has the hull's volume (Steiner's formula, exact): the
+#    hull's mass, its extents within 4 % of the hull's.
+library = ballast_clusters.loadShapeLibrary()
+shapes = {s["name"]: s for s in library["shapes"]}
+density = p["particle_density"]
+
+
+try:
+    scales = {name: ballast_clusters.dilatedCoreScale(s["vertices"], s["triangles"], r) for name, s in shapes.items()}
+except ValueError as error:
+    raise SystemExit(f"polyhedra_dem.py: {error}")
+target_volume = p["ballast_mass_kg"] / density
+drawn, volume = [], 0.0
+while volume < target_volume:
+    # one stone a call: sampleBallastStones stops once its (cluster's) volume passes the target, the hull's here
+    stone = ballast_clusters.sampleBallastStones(library, rng, 1e-12, level="coarse", density=density)[0]
+    drawn.append(stone)
+    volume += shapes[stone["shape"]]["volume"] * stone["sieveSize"] ** 3
+cores = [np.asarray(shapes[s["shape"]]["vertices"], float) * s["sieveSize"] * scales[s["shape"]] for s in drawn]
+dilations = np.array([r * s["sieveSize"] for s in drawn])
+inertia = np.array([density * np.asarray(shapes[s["shape"]]["principalInertia"]) * s["sieveSize"] ** 5 for s in drawn])
+reaches = np.array([np.linalg.norm(c, axis=1).max() + d for c, d in zip(cores, dilations)])
+centres, bin_top = hopper.lattice(reaches, rng)
+
+
+def quaternion(rotation):
+    """(w, x, y, z) of a proper rotation matrix (Shepperd's method)."""
+    m = np.asarray(rotation, float)
+    w = math.sqrt(max(0.0, 1.0 + m[0, 0] + m[1, 1] + m[2, 2])) / 2.0
+    x = math.copysign(math.sqrt(max(0.0, 1.0 + m[0, 0] - m[1, 1] - m[2, 2])) / 2.0, m[2, 1] - m[1, 2])
+    y = math.copysign(math.sqrt(max(0.0, 1.0 - m[0, 0] + m[1, 1] - m[2, 2])) / 2.0, m[0, 2] - m[2, 0])
+    z = math.copysign(math.sqrt(max(0.0, 1.0 - m[0, 0] - m[1, 1] + m[2, 2])) / 2.0, m[1, 0] - m[0, 1])
+    return (w, x, y, z)
+
+
+def rotations(q):
+    """Rotation matrices (n, 3, 3) of unit quaternions q (n, 4) w, x, y, z."""
+    w, x, y, z = q.T
+    return np.stack([np.stack([1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)], -1),
+                     np.stack([2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)], -1),
+                     np.stack([2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)], -1)], 1)
+
+
+# 3. The bed: stones, then the floor (two triangles, z = 0) and the hopper's walls (rig.py's quadrilaterals, two
+#    triangles each, counter-clockwise seen from the stones).
+# Neighbour lists: a skin of 5 % of the mean size (about 2 mm; the lists are rebuilt adaptively, as stones move);
+# 64 candidates, since a 22 mm stone among 63 mm ones has many within its reach plus skin (24 overflowed at 60 kg).
+bed = polyhedra_driver.PolyhedraBed(p["polyhedron_dt"], stone_material, gravity=(0.0, 0.0, -GRAVITY), max_neighbours=64,
+                                    neighbour_skin=0.05 * float(np.mean([s["sieveSize"] for s in drawn])),
+                                    backend=p["polyhedra_backend"])
+for stone, core, dilation, centre in zip(drawn, cores, dilations, centres):
+    bed.add_stone(core, dilation, density, centre, quaternion(stone["rotation"]))
+F = FLOOR_HALF
+triangles = [[(-F, -F, 0), (F, -F, 0), (F, F, 0)], [(-F, -F, 0), (F, F, 0), (-F, F, 0)]]
+for q in hopper.walls(bin_top):
+    # rig.py's quadrilaterals wind counter-clockwise seen from outside the hopper: reversed, seen from the stones
+    triangles += [[q[0], q[2], q[1]], [q[0], q[3], q[2]]]
+FLOOR = [0, 1]
+GATE, gate_travel = [], 0.0
+if p["hopper_gate_s"] > 0.0:
+    # the stones first settle in the closed hopper, then the gate slides out at hopper_gate_speed (rig.py)
+    plate, gate_travel = hopper.gate()
+    GATE = [len(triangles), len(triangles) + 1]
+    triangles += plate
+bed.set_walls(np.array(triangles, float), [0, 0] + [1] * (len(triangles) - 2), wall_materials)
+bed.initialize()
+impact = math.sqrt(2.0 * GRAVITY * (bin_top - 0.0))  # the fastest landing: from the lattice's top
+critical = bed.critical_time_step(impact_velocity=impact)
+if p["polyhedron_dt"] > 0.5 * critical:
+    raise SystemExit(f"polyhedra_dem.py: polyhedron_dt = {p['polyhedron_dt']:g} s is above half the contacts' critical "
+                     f"step {critical:.3g} s at the {impact:.2f} m/s impact (E = {young:g} Pa): take at most "
+                     f"{0.5 * critical:.3g} s")
+_, _, _, _, masses = bed.states()
+total_mass = float(masses.sum())
+backend, reason = bed.backend
+print(f"{len(drawn)} polyhedra (r_d {r:g} x size), {total_mass:.2f} kg, lattice up to {bin_top:.3f} m; "
+      f"dt {bed.dt:.3g} s (critical {critical:.3g} s at {impact:.2f} m/s); {backend} ({reason})", flush=True)
+
+
+# 4. Discharge and rest, as dem.py: spans of rest_check_s until the hopper is empty and every stone is slower than
+#    rest_speed, or duration_s; a record every record_every_s. The floor's impulse is summed from the library's mean
+#    force over each batch of steps (every batch, from the start: no per-step Python call is needed).
+def energies():
+    pos, q, v, w, m = bed.states()
+    spin = np.einsum("nji,nj->ni", rotations(q), w)  # body (principal) axes: R^T w
+    kinetic = 0.5 * float(np.sum(m * np.sum(v * v, axis=1)) + np.sum(inertia * spin * spin))
+    return pos, v, m, kinetic, GRAVITY * float(np.sum(m * pos[:, 2]))
+
+
+recorder = results.DemRecorder(out)
+floor_impulse = 0.0
+steps_per_record = max(1, int(round(p["record_every_s"] / bed.dt)))
+records_per_check = max(1, int(round(p["rest_check_s"] / p["record_every_s"])))
+_, _, _, _, initial_energy = energies()
+start, steps, at_rest, last_print = time.monotonic(), 0, False, -1.0
+gate_moving = False
+while bed.time < p["duration_s"] - 0.5 * bed.dt:
+    for _ in range(records_per_check):
+        if GATE and not gate_moving and bed.time >= p["hopper_gate_s"] - 0.5 * bed.dt:
+            bed.set_wall_velocity(GATE, (p["hopper_gate_speed"], 0.0, 0.0))
+            gate_moving, gate_stop = True, bed.time + gate_travel / p["hopper_gate_speed"]
+            print(f"gate opens at t = {bed.time:.3f} s", flush=True)
+        elif gate_moving and bed.time >= gate_stop - 0.5 * bed.dt:
+            bed.set_wall_velocity(GATE, (0.0, 0.0, 0.0))  # clear of the aperture: it stays there
+        bed.step(steps_per_record)
+        steps += steps_per_record
+        reaction = -float(bed.wall_force(FLOOR)[2])  # the floor's on the stones: the stones' on it, mean over the batch
+        floor_impulse += reaction * steps_per_record * bed.dt
+        pos, v, m, kinetic, potential = energies()
+        speeds = np.linalg.norm(v, axis=1)
+        recorder.append(time=bed.time, kinetic_energy=kinetic, potential_energy=potential, left_energy=0.0,
+                        left_mass=0.0, hopper_mass=float(m[pos[:, 2] > hopper.z0].sum()),
+                        max_speed=float(speeds.max()), floor_force=reaction, floor_impulse=floor_impulse)
+    last = recorder.last
+    elapsed = time.monotonic() - start
+    if elapsed - last_print > 10.0 or bed.time >= p["duration_s"] - 0.5 * bed.dt:
+        print(f"t={bed.time:.4f} s  step {steps}  hopper {last['hopper_mass']:.1f} kg  max speed "
+              f"{last['max_speed']:.3f} m/s  floor {last['floor_force'] / (total_mass * GRAVITY):.3f} W  "
+              f"{elapsed:.1f} s", flush=True)
+        last_print = elapsed
+    if at_rest:
+        break  # the extra span after rest, for the floor's mean reaction (case.py)
+    if last["hopper_mass"] == 0.0 and last["max_speed"] < p["rest_speed"]:
+        print(f"at rest at t = {bed.time:.3f} s", flush=True)
+        at_rest = True
+wall_time = time.monotonic() - start
+
+# 5. The pile's surface for case.py's profile fit: every stone's core vertices in the world with the dilation's radius
+#    (a vertex's ball top is the stone's highest point near it).
+pos, q, _, _, _ = bed.states()
+R = rotations(q)
+points = np.concatenate([np.column_stack([pos[k] + core @ R[k].T, np.full(len(core), dilations[k])])
+                         for k, core in enumerate(cores)])
+info = {"steps": steps, "dt": bed.dt, "wall_time_s": wall_time, "particles": len(drawn), "spheres": len(points),
+        "ballast_mass_kg": total_mass, "simulated_s": bed.time, "material": p["material"], "left_particles": 0,
+        "left_mass_kg": 0.0, "base_spheres": 0, "base_top_m": 0.0, "initial_energy_j": initial_energy,
+        "at_rest": at_rest, "mean_diameter_m": float(np.mean([s["sieveSize"] for s in drawn])),
+        "polyhedra_backend": backend, "critical_dt": critical}
+results.save_dem_outputs(out, recorder, info, spheres=points, particle_centres=pos, particle_masses=masses)
+print(f"done: {steps} steps in {wall_time:.1f} s ({backend})", flush=True)

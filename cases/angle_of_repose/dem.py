@@ -84,7 +84,7 @@ else:
                                                   level=p["cluster_level"], density=p["particle_density"])
     reaches = np.array([s["enclosingRadius"] for s in stones])
 count = len(reaches)
-centres, bin_top = hopper.lattice(reaches, rng)
+centres, bin_top, lattice_order = hopper.lattice(reaches, rng)
 # The fixed base (base_radius > 0): a disc of fixed spheres of the particles' mean diameter (of their enclosing spheres
 # for clusters), touching on a hexagonal lattice, lying on the floor, as a base with glued grains; spheres without
 # rolling resistance roll off a flat base for ever, its first layer included. What passes the base's edge falls to the
@@ -96,11 +96,11 @@ if p["base_radius"] > 0.0:
         base_ids.append(O.bodies.append(utils.sphere((x, y, 0.5 * d_base), 0.5 * d_base, fixed=True,
                                                      material=floor_mat)))
 particle_ids = []
-for k, centre in enumerate(centres):
+for k in lattice_order:  # bodies in the lattice's order, bottom row first
     if shape == "sphere":
-        particle_ids.append(O.bodies.append(utils.sphere(tuple(centre), float(reaches[k]), material=ballast)))
+        particle_ids.append(O.bodies.append(utils.sphere(tuple(centres[k]), float(reaches[k]), material=ballast)))
     else:
-        particle_ids.append(pack_ballast.addClusterStone(stones[k], tuple(centre), O.materials[ballast]))
+        particle_ids.append(pack_ballast.addClusterStone(stones[k], tuple(centres[k]), O.materials[ballast]))
 for quad in hopper.walls(bin_top):
     quad = [Vector3(*c) for c in quad]
     O.bodies.append(utils.facet((quad[0], quad[1], quad[2]), material=hopper_mat, wire=True))

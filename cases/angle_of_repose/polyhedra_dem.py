@@ -61,7 +61,7 @@ cores = [np.asarray(shapes[s["shape"]]["vertices"], float) * s["sieveSize"] * sc
 dilations = np.array([r * s["sieveSize"] for s in drawn])
 inertia = np.array([density * np.asarray(shapes[s["shape"]]["principalInertia"]) * s["sieveSize"] ** 5 for s in drawn])
 reaches = np.array([np.linalg.norm(c, axis=1).max() + d for c, d in zip(cores, dilations)])
-centres, bin_top = hopper.lattice(reaches, rng)
+centres, bin_top, _ = hopper.lattice(reaches, rng)
 
 
 def quaternion(rotation):

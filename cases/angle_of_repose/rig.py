@@ -24,7 +24,8 @@ class Hopper:
     def lattice(self, reaches, rng):
         """Starting centres of particles reaching `reaches` [m] from their centres: a jittered square lattice filling
         the hopper from the aperture up, spaced 2.1 times the largest reach, the particles spread over it at random
-        (not sorted by height). Returns (centres (n, 3) in the order of `reaches`, the lattice's top + one spacing)."""
+        (not sorted by height). Returns (centres (n, 3) in the order of `reaches`, the lattice's top + one spacing, the
+        particles in the lattice's order: bottom row first)."""
         count = len(reaches)
         spacing = 2.0 * 1.05 * float(np.max(reaches))
         jitter = 0.02 * spacing
@@ -42,7 +43,7 @@ class Hopper:
         order = rng.permutation(count)
         placed = np.zeros((count, 3))
         placed[order] = np.array(centres)
-        return placed, max(c[2] for c in centres) + spacing
+        return placed, max(c[2] for c in centres) + spacing, order
 
     def walls(self, bin_top):
         """The hopper's walls as quadrilaterals (4 corners each, counter-clockwise seen from outside the hopper: their

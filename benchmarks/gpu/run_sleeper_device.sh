@@ -88,7 +88,7 @@ case_dir=$root/cases/${CASE:-sleeper_on_ballast}
 driver=()
 if grep -q '^dem_driver *=' "$case_dir/case.toml"; then driver=(--set dem_driver=standalone); fi
 ${PYTHON:-python3} "$root/tools/run_case.py" "$case_dir" "${target[@]}" \
-  "${driver[@]}" --set polyhedra_backend=cuda --set "dem_threads=${THREADS:-$(nproc)}" "$@"
+  ${driver[@]+"${driver[@]}"} --set polyhedra_backend=cuda --set "dem_threads=${THREADS:-$(nproc)}" "$@"
 code=$?
 set -e
 echo "runner exit $code after $(( $(date +%s) - start )) s" | tee -a "$out/device.txt"

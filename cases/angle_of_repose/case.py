@@ -99,6 +99,11 @@ class AngleOfRepose(Case):
         if p["particle_shape"] != "polyhedron" and p["hopper_gate_s"] > 0.0:
             problems.append("hopper_gate_s > 0 (a gate) is for particle_shape = \"polyhedron\" only: dem.py's hopper "
                             "has none")
+        if p["hopper_gate_s"] > 0.0:
+            cleared = p["hopper_gate_s"] + 1.5 * p["hopper_aperture"] / p["hopper_gate_speed"]  # rig.Hopper.gate's travel
+            if cleared >= p["duration_s"]:
+                problems.append(f"the gate opens at hopper_gate_s = {p['hopper_gate_s']:g} s and clears the aperture at "
+                                f"{cleared:g} s, not before duration_s = {p['duration_s']:g} s: nothing could pile")
         if p["particle_shape"] == "polyhedron" and p["friction_model"] != "constant":
             problems.append("particle_shape = \"polyhedron\" has constant friction only (friction_model = \"constant\")")
         return problems

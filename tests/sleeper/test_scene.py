@@ -117,18 +117,6 @@ class StoneTemplatesTest(unittest.TestCase):
                 with self.subTest(n=n, shape=shape):
                     self.assertAlmostEqual(feret(core) + 2 * r_d, 0.07, delta=1e-12 * 0.07)
 
-    def test_steiner_volume_of_a_cube(self):
-        """The dilated volume (scene.stone_volume's Steiner formula, Ullrich 2022 eq. 2.5) of a unit cube's core
-        dilated by r: a^3 + 6 a^2 r + 3 pi a r^2 + 4/3 pi r^3 (faces, quarter cylinders on 12 edges, eighth balls on
-        8 corners), the closed form; the triangulated cube's diagonals are flat edges that add nothing."""
-        cube = np.array(list(itertools.product((-0.5, 0.5), repeat=3)))
-        triangles = sc.ballast_clusters.ConvexStone(cube).triangles
-        feret_, volume, area, curvature = sc._shape_measures(cube, triangles)
-        self.assertAlmostEqual(feret_, math.sqrt(3), delta=1e-14)
-        r = 0.1
-        steiner = volume + area * r + curvature * r * r + 4 / 3 * math.pi * r ** 3
-        self.assertAlmostEqual(steiner, 1 + 6 * r + 3 * math.pi * r * r + 4 / 3 * math.pi * r ** 3, delta=1e-12)
-
     def test_parameter_refused(self):
         """Odd, negative and too small resolutions are refused before any run, with the reason."""
         for value, words in ((3, "at least 4"), (2, "at least 4"), (31, "even"), (-2, ">= 0")):

@@ -96,9 +96,6 @@ class AngleOfRepose(Case):
         if p["particle_shape"] == "polyhedron" and p["base_radius"] > 0.0:
             problems.append("particle_shape = \"polyhedron\" has no fixed base (the polyhedra library has no fixed "
                             "bodies): base_radius must be 0")
-        if p["particle_shape"] != "polyhedron" and p["hopper_gate_s"] > 0.0:
-            problems.append("hopper_gate_s > 0 (a gate) is for particle_shape = \"polyhedron\" only: dem.py's hopper "
-                            "has none")
         if p["hopper_gate_s"] > 0.0:
             cleared = p["hopper_gate_s"] + 1.5 * p["hopper_aperture"] / p["hopper_gate_speed"]  # rig.Hopper.gate's travel
             if cleared >= p["duration_s"]:

@@ -55,7 +55,7 @@ else:
                                               label="floor", **common))
     hopper_mat = O.materials.append(BallastMat(frictionAngle=0.0, rollingFriction=0.0, label="hopper", **common))
 
-# 2. Floor (z = 0) and hopper: a square funnel with walls at hopper_wall_angle_deg to the horizontal, narrowing to the
+# 2. Floor (z = 0) and hopper (rig.py, with polyhedra_dem.py): a square funnel with walls at hopper_wall_angle_deg to the horizontal, narrowing to the
 #    square aperture (side hopper_aperture) at drop_height above the floor, and a vertical square bin on top of it
 #    that holds the initial lattice. The hopper's axis is the z axis. With base_radius > 0 the pile forms on a base of
 #    that radius (the fixed-base test, e.g. ISO 4324; step 3).
@@ -105,6 +105,12 @@ for quad in hopper.walls(bin_top):
     quad = [Vector3(*c) for c in quad]
     O.bodies.append(utils.facet((quad[0], quad[1], quad[2]), material=hopper_mat, wire=True))
     O.bodies.append(utils.facet((quad[0], quad[2], quad[3]), material=hopper_mat, wire=True))
+# The sliding gate (hopper_gate_s > 0, rig.py): a frictionless plate at the aperture that holds the ballast until
+# hopper_gate_s, then slides out along +x at hopper_gate_speed (a fixed body with a velocity: the integrators move it).
+gate_ids, gate_travel, gate_stop = [], 0.0, [math.inf]
+if p["hopper_gate_s"] > 0.0:
+    plate, gate_travel = hopper.gate()
+    gate_ids = [O.bodies.append(utils.facet([Vector3(*c) for c in t], material=hopper_mat, wire=True)) for t in plate]
 
 total_mass = sum(O.bodies[i].state.mass for i in particle_ids)
 spheres_per_particle = sum(1 for b in O.bodies if b.isClumpMember) / count if shape == "cluster" else 1
@@ -170,6 +176,10 @@ def floor_force():
 
 def record():
     remove_fallen()
+    if O.time >= gate_stop[0]:  # the gate has cleared the aperture: it stays there
+        for i in gate_ids:
+            O.bodies[i].state.vel = Vector3.Zero
+        gate_stop[0] = math.inf
     speeds = [O.bodies[i].state.vel.norm() for i in particle_ids]
     return {"kinetic_energy": utils.kineticEnergy(), "potential_energy": potential_energy(),
             "left_energy": left_energy[0], "left_mass": left_mass[0],
@@ -186,6 +196,12 @@ def progress(last):
 
 initial_energy = potential_energy()  # at rest on the lattice, no contact: kinetic and elastic energy are 0
 floor_impulse = [0.0]
+if gate_ids:
+    dem.run(p["hopper_gate_s"], record, p["record_every_s"], progress)  # the ballast settles on the closed gate
+    for i in gate_ids:
+        O.bodies[i].state.vel = Vector3(p["hopper_gate_speed"], 0.0, 0.0)
+    gate_stop[0] = O.time + gate_travel / p["hopper_gate_speed"]
+    print(f"gate opens at t = {O.time:.3f} s", flush=True)
 while O.time < p["duration_s"] - 0.5 * O.dt:
     dem.run(min(p["rest_check_s"], p["duration_s"] - O.time), record, p["record_every_s"], progress)
     if dem.last["hopper_mass"] == 0.0 and dem.last["max_speed"] < p["rest_speed"]:

@@ -3,10 +3,9 @@
 # Hertz contacts of the dilation's curvature, Mindlin friction) on the polyhedra library through its C interface
 # (railcosim.polyhedra_driver), without YADE: the GPU machine's path. The rig is dem.py's (rig.py: the same hopper,
 # lattice and floor); the stones are drawn as the clusters are (sampleBallastStones: shape, sieve size, turn), from
-# the same seed; with hopper_gate_s > 0 they settle in the hopper on a sliding gate first (polyhedra only). Differences
-# from dem.py: no fixed base (the library has no fixed bodies: base_radius must be 0), the
-# kinetic energy's rotational part from the undilated hull's principal inertia, the floor's reaction from the
-# library's mean force over each step batch.
+# the same seed; with hopper_gate_s > 0 they settle in the hopper on a sliding gate first. Differences from dem.py:
+# no fixed base (the library has no fixed bodies: base_radius must be 0), the kinetic energy's rotational part from
+# the undilated hull's principal inertia, the floor's reaction from the library's mean force over each step batch.
 # Run by `railcosim run` as: python3 polyhedra_dem.py PARAMETERS.json ENDPOINT OUTDIR (DEM-only: no endpoint used)
 import math
 import os

@@ -97,12 +97,14 @@ class AngleOfRepose(Case):
             problems.append("particle_shape = \"polyhedron\" has no fixed base (the polyhedra library has no fixed "
                             "bodies): base_radius must be 0")
         if p["hopper_gate_s"] > 0.0:
-            cleared = p["hopper_gate_s"] + 1.5 * p["hopper_aperture"] / p["hopper_gate_speed"]  # rig.Hopper.gate's travel
+            # rig.Hopper.gate's travel is 1.5 apertures
+            cleared = p["hopper_gate_s"] + 1.5 * p["hopper_aperture"] / p["hopper_gate_speed"]
             if cleared >= p["duration_s"]:
-                problems.append(f"the gate opens at hopper_gate_s = {p['hopper_gate_s']:g} s and clears the aperture at "
-                                f"{cleared:g} s, not before duration_s = {p['duration_s']:g} s: nothing could pile")
+                problems.append(f"the gate opens at hopper_gate_s = {p['hopper_gate_s']:g} s and clears the aperture "
+                                f"at {cleared:g} s, not before duration_s = {p['duration_s']:g} s: nothing could pile")
         if p["particle_shape"] == "polyhedron" and p["friction_model"] != "constant":
-            problems.append("particle_shape = \"polyhedron\" has constant friction only (friction_model = \"constant\")")
+            problems.append("particle_shape = \"polyhedron\" has constant friction only "
+                            "(friction_model = \"constant\")")
         return problems
 
     def dem_command(self, p, endpoint, out):
@@ -174,8 +176,9 @@ class AngleOfRepose(Case):
             checks.append({"name": "ballast out of the hopper before the gate opened (fraction)", "value": leaked,
                            "limit": 0.0})
         if p["particle_shape"] in ("sphere", "polyhedron"):
-            # Spheres stop on their rolling friction, polyhedra on their faces. Clusters have none (T2): a coarse stone
-            # rolls on its round members across the bare floor for seconds (README), so a cluster run ends at duration_s.
+            # Spheres stop on their rolling friction, polyhedra on their faces. Clusters have none (T2): a coarse
+            # stone rolls on its round members across the bare floor for seconds (README), so a cluster run ends at
+            # duration_s.
             checks.append({"name": "run ended at rest (0 = yes)", "value": 0.0 if dem["at_rest"] else 1.0,
                            "limit": 0.0})
         return {

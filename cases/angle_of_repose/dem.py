@@ -55,10 +55,10 @@ else:
                                               label="floor", **common))
     hopper_mat = O.materials.append(BallastMat(frictionAngle=0.0, rollingFriction=0.0, label="hopper", **common))
 
-# 2. Floor (z = 0) and hopper (rig.py, with polyhedra_dem.py): a square funnel with walls at hopper_wall_angle_deg to the horizontal, narrowing to the
-#    square aperture (side hopper_aperture) at drop_height above the floor, and a vertical square bin on top of it
-#    that holds the initial lattice. The hopper's axis is the z axis. With base_radius > 0 the pile forms on a base of
-#    that radius (the fixed-base test, e.g. ISO 4324; step 3).
+# 2. Floor (z = 0) and hopper (rig.py, shared with polyhedra_dem.py): a square funnel with walls at
+#    hopper_wall_angle_deg to the horizontal, narrowing to the square aperture (side hopper_aperture) at drop_height
+#    above the floor, and a vertical square bin on top of it that holds the initial lattice. The hopper's axis is the
+#    z axis. With base_radius > 0 the pile forms on a base of that radius (the fixed-base test, e.g. ISO 4324; step 3).
 floor = O.bodies.append(utils.wall(position=0.0, axis=2, sense=1, material=floor_mat))
 hopper = Hopper(p)  # rig.py: the scene's geometry, shared with polyhedra_dem.py
 z0 = hopper.z0

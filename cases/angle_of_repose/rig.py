@@ -53,7 +53,8 @@ class Hopper:
         for k in range(4):
             (sx0, sy0), (sx1, sy1) = corners[k], corners[(k + 1) % 4]
             low = [(sx0 * 0.5 * a, sy0 * 0.5 * a, self.z0), (sx1 * 0.5 * a, sy1 * 0.5 * a, self.z0)]
-            high = [(sx0 * self.top_half, sy0 * self.top_half, self.z1), (sx1 * self.top_half, sy1 * self.top_half, self.z1)]
+            high = [(sx0 * self.top_half, sy0 * self.top_half, self.z1),
+                    (sx1 * self.top_half, sy1 * self.top_half, self.z1)]
             top = [(c[0], c[1], bin_top) for c in high]
             quads.append((low[0], low[1], high[1], high[0]))
             quads.append((high[0], high[1], top[1], top[0]))

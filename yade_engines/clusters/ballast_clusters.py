@@ -60,8 +60,8 @@ def dilatedCoreScale(vertices, triangles, relativeDilation):
     if not r > 0.0 or not math.isfinite(r):
         raise ValueError("dilatedCoreScale: the dilation must be positive and finite, got %r" % relativeDilation)
     if 4.0 / 3.0 * math.pi * r ** 3 >= volume:
-        raise ValueError("dilatedCoreScale: a ball of radius %g alone has at least the stone's volume %g: no core is left"
-                         % (r, volume))
+        raise ValueError("dilatedCoreScale: a ball of radius %g alone has at least the stone's volume %g: no core is "
+                         "left" % (r, volume))
     low, high = 0.0, 1.0
     for _ in range(60):  # 2^-60: the double's resolution of c
         c = 0.5 * (low + high)

@@ -43,8 +43,6 @@ wall_materials = [(young, poisson, restitution, p["floor_friction"]), (young, po
 library = ballast_clusters.loadShapeLibrary()
 shapes = {s["name"]: s for s in library["shapes"]}
 density = p["particle_density"]
-
-
 try:
     scales = {name: ballast_clusters.dilatedCoreScale(s["vertices"], s["triangles"], r) for name, s in shapes.items()}
 except ValueError as error:
@@ -115,7 +113,7 @@ if p["hopper_gate_s"] > 0.0:
     triangles += plate
 bed.set_walls(np.array(triangles, float), [0, 0] + [1] * (len(triangles) - 2), wall_materials)
 bed.initialize()
-impact = math.sqrt(2.0 * GRAVITY * (bin_top - 0.0))  # the fastest landing: from the lattice's top
+impact = math.sqrt(2.0 * GRAVITY * bin_top)  # the fastest landing: from the lattice's top to the floor
 critical = bed.critical_time_step(impact_velocity=impact)
 if p["polyhedron_dt"] > 0.5 * critical:
     raise SystemExit(f"polyhedra_dem.py: polyhedron_dt = {p['polyhedron_dt']:g} s is above half the contacts' critical "

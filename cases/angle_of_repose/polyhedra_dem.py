@@ -61,35 +61,6 @@ reaches = np.array([np.linalg.norm(c, axis=1).max() + d for c, d in zip(cores, d
 centres, bin_top, _ = hopper.lattice(reaches, rng)
 
 
-def quaternion(rotation):
-    """(w, x, y, z) of a proper rotation matrix by Shepperd's method: from the largest of 1 + trace and the diagonal
-    terms' combinations, so that no division is by a small number (half turns included)."""
-    m = np.asarray(rotation, float)
-    t = m[0, 0] + m[1, 1] + m[2, 2]
-    k = int(np.argmax([t, m[0, 0], m[1, 1], m[2, 2]]))
-    if k == 0:
-        w = 0.5 * math.sqrt(1.0 + t)
-        q = (w, (m[2, 1] - m[1, 2]) / (4 * w), (m[0, 2] - m[2, 0]) / (4 * w), (m[1, 0] - m[0, 1]) / (4 * w))
-    elif k == 1:
-        x = 0.5 * math.sqrt(1.0 + 2 * m[0, 0] - t)
-        q = ((m[2, 1] - m[1, 2]) / (4 * x), x, (m[0, 1] + m[1, 0]) / (4 * x), (m[0, 2] + m[2, 0]) / (4 * x))
-    elif k == 2:
-        y = 0.5 * math.sqrt(1.0 + 2 * m[1, 1] - t)
-        q = ((m[0, 2] - m[2, 0]) / (4 * y), (m[0, 1] + m[1, 0]) / (4 * y), y, (m[1, 2] + m[2, 1]) / (4 * y))
-    else:
-        z = 0.5 * math.sqrt(1.0 + 2 * m[2, 2] - t)
-        q = ((m[1, 0] - m[0, 1]) / (4 * z), (m[0, 2] + m[2, 0]) / (4 * z), (m[1, 2] + m[2, 1]) / (4 * z), z)
-    return q
-
-
-def rotations(q):
-    """Rotation matrices (n, 3, 3) of unit quaternions q (n, 4) w, x, y, z."""
-    w, x, y, z = q.T
-    return np.stack([np.stack([1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)], -1),
-                     np.stack([2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)], -1),
-                     np.stack([2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)], -1)], 1)
-
-
 # 3. The bed: stones, then the floor (two triangles, z = 0) and the hopper's walls (rig.py's quadrilaterals, two
 #    triangles each, counter-clockwise seen from the stones).
 # Neighbour lists: a skin of 5 % of the mean size (about 2 mm; the lists are rebuilt adaptively, as stones move);
@@ -98,7 +69,7 @@ bed = polyhedra_driver.PolyhedraBed(p["polyhedron_dt"], stone_material, gravity=
                                     neighbour_skin=0.05 * float(np.mean([s["sieveSize"] for s in drawn])),
                                     backend=p["polyhedra_backend"])
 for stone, core, dilation, centre in zip(drawn, cores, dilations, centres):
-    bed.add_stone(core, dilation, density, centre, quaternion(stone["rotation"]))
+    bed.add_stone(core, dilation, density, centre, ballast_clusters.quaternionFromRotation(stone["rotation"]))
 F = FLOOR_HALF
 triangles = [[(-F, -F, 0), (F, -F, 0), (F, F, 0)], [(-F, -F, 0), (F, F, 0), (-F, F, 0)]]
 for q in hopper.walls(bin_top):
@@ -131,7 +102,7 @@ print(f"{len(drawn)} polyhedra (r_d {r:g} x size), {total_mass:.2f} kg, lattice 
 #    force over each batch of steps (every batch, from the start: no per-step Python call is needed).
 def energies():
     pos, q, v, w, m = bed.states()
-    spin = np.einsum("nji,nj->ni", rotations(q), w)  # body (principal) axes: R^T w
+    spin = np.einsum("nji,nj->ni", ballast_clusters.rotationFromQuaternions(q), w)  # body (principal) axes: R^T w
     kinetic = 0.5 * float(np.sum(m * np.sum(v * v, axis=1)) + np.sum(inertia * spin * spin))
     return pos, v, m, kinetic, GRAVITY * float(np.sum(m * pos[:, 2]))
 
@@ -179,17 +150,24 @@ def resting(last):
     return last["hopper_mass"] == 0.0 and last["max_speed"] < p["rest_speed"]
 
 
+# At rest once two span ends in a row are: a rocking stone can pass below rest_speed at one record and move again.
+# The second span is also the window of the floor's mean reaction (case.py), as in dem.py.
+at_rest = False
 while bed.time < p["duration_s"] - 0.5 * bed.dt:
     if resting(span(min(p["rest_check_s"], p["duration_s"] - bed.time))):
-        print(f"at rest at t = {bed.time:.3f} s", flush=True)
-        break
-at_rest = resting(span(p["rest_check_s"]))  # one more span, for the floor's mean reaction (case.py), as dem.py
+        resting_from = bed.time
+        if resting(span(p["rest_check_s"])):
+            print(f"at rest at t = {resting_from:.3f} s", flush=True)
+            at_rest = True
+            break
+if not at_rest:
+    at_rest = resting(span(p["rest_check_s"]))  # duration_s reached: one more span for the floor's mean reaction
 wall_time = time.monotonic() - start
 
 # 5. The pile's surface for case.py's profile fit: every stone's core vertices in the world with the dilation's radius
 #    (a vertex's ball top is the stone's highest point near it).
 pos, q, _, _, _ = bed.states()
-R = rotations(q)
+R = ballast_clusters.rotationFromQuaternions(q)
 points = np.concatenate([np.column_stack([pos[k] + core @ R[k].T, np.full(len(core), dilations[k])])
                          for k, core in enumerate(cores)])
 info = {"steps": steps, "dt": bed.dt, "wall_time_s": wall_time, "particles": len(drawn), "spheres": 0,

@@ -350,23 +350,9 @@ def layer_stones(scene, rng, z_low, z_high):
     return list(zip(shapes.tolist(), sizes.tolist()))
 
 
-def rotation_matrix(q):
-    """Rotation matrix of the quaternion (w, x, y, z) (body frame to world)."""
-    w, x, y, z = q
-    return np.array([[1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)],
-                     [2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)],
-                     [2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)]])
-
-
-def _quaternion_of(rotation):
-    """(w, x, y, z) of a rotation matrix."""
-    m = rotation
-    w = math.sqrt(max(0.0, 1.0 + m[0, 0] + m[1, 1] + m[2, 2])) / 2.0
-    x = math.copysign(math.sqrt(max(0.0, 1.0 + m[0, 0] - m[1, 1] - m[2, 2])) / 2.0, m[2, 1] - m[1, 2])
-    y = math.copysign(math.sqrt(max(0.0, 1.0 - m[0, 0] + m[1, 1] - m[2, 2])) / 2.0, m[0, 2] - m[2, 0])
-    z = math.copysign(math.sqrt(max(0.0, 1.0 - m[0, 0] - m[1, 1] + m[2, 2])) / 2.0, m[1, 0] - m[0, 1])
-    q = np.array([w, x, y, z])
-    return q / np.linalg.norm(q)
+# Quaternions (w, x, y, z) and rotation matrices (body frame to world): the shape library's helpers.
+rotation_matrix = ballast_clusters.rotationFromQuaternions
+_quaternion_of = ballast_clusters.quaternionFromRotation
 
 
 def _column_profile(core, triangles, dilation, rotation, cell, margin):

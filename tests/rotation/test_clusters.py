@@ -140,6 +140,27 @@ class DilatedPolyhedra(unittest.TestCase):
                 bc.dilatedCoreScale(stone.vertices, stone.triangles, bad)
 
 
+class Quaternions(unittest.TestCase):
+    def test_matrix_round_trip_including_half_turns(self):
+        """quaternionFromRotation inverts rotationFromQuaternions to rounding, half turns about the axes included (where
+        w = 0 and a formula dividing by w fails), with the sign convention w >= 0; the vectorised form matches the
+        single one."""
+        rng = np.random.default_rng(5)
+        turns = [bc.randomRotation(rng) for _ in range(200)]
+        turns += [rotation_about(axis, math.pi) for axis in np.eye(3)]
+        turns.append(rotation_about([1.0, 1.0, 0.0], math.pi))
+        for rotation in turns:
+            q = bc.quaternionFromRotation(rotation)
+            self.assertAlmostEqual(float(np.linalg.norm(q)), 1.0, places=14)
+            self.assertGreaterEqual(q[0], 0.0)
+            np.testing.assert_allclose(bc.rotationFromQuaternions(q), rotation, atol=1e-14)
+        qs = np.array([bc.quaternionFromRotation(r) for r in turns[:5]])
+        np.testing.assert_allclose(bc.rotationFromQuaternions(qs), np.array(turns[:5]), atol=1e-14)
+        # a quarter turn about z: (cos 45°, 0, 0, sin 45°)
+        np.testing.assert_allclose(bc.quaternionFromRotation(rotation_about([0, 0, 1], math.pi / 2)),
+                                   [math.sqrt(0.5), 0, 0, math.sqrt(0.5)], atol=1e-15)
+
+
 class ClusterConstruction(unittest.TestCase):
     def test_cluster_is_in_principal_axes_and_fills_the_stone(self):
         stone = bc.randomConvexStone(7, (1.0, 0.75, 0.6), 16, 0.12)

@@ -525,6 +525,40 @@ def gradingReport(sizesMillimetres, masses, sieves=EN13450_SIEVES_MM):
             "compliant": within and fraction >= EN13450_MIN_FRACTION_32_50}
 
 
+def rotationFromQuaternions(q):
+    """Rotation matrix (body to world) of the unit quaternion q = (w, x, y, z), or matrices (n, 3, 3) of quaternions
+    (n, 4)."""
+    w, x, y, z = np.moveaxis(np.asarray(q, dtype=float), -1, 0)
+    matrix = np.array([[1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)],
+                       [2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)],
+                       [2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)]])
+    return np.moveaxis(matrix, (0, 1), (-2, -1))
+
+
+def quaternionFromRotation(rotation):
+    """The unit quaternion (w, x, y, z), w >= 0, of a proper rotation matrix, by Shepperd's method: from the largest
+    of 1 + trace and the diagonal terms' combinations, so that no division is by a small number (half turns
+    included)."""
+    m = np.asarray(rotation, dtype=float)
+    t = m[0, 0] + m[1, 1] + m[2, 2]
+    k = int(np.argmax([t, m[0, 0], m[1, 1], m[2, 2]]))
+    if k == 0:
+        w = 0.5 * math.sqrt(1.0 + t)
+        q = [w, (m[2, 1] - m[1, 2]) / (4 * w), (m[0, 2] - m[2, 0]) / (4 * w), (m[1, 0] - m[0, 1]) / (4 * w)]
+    elif k == 1:
+        x = 0.5 * math.sqrt(1.0 + 2 * m[0, 0] - t)
+        q = [(m[2, 1] - m[1, 2]) / (4 * x), x, (m[0, 1] + m[1, 0]) / (4 * x), (m[0, 2] + m[2, 0]) / (4 * x)]
+    elif k == 2:
+        y = 0.5 * math.sqrt(1.0 + 2 * m[1, 1] - t)
+        q = [(m[0, 2] - m[2, 0]) / (4 * y), (m[0, 1] + m[1, 0]) / (4 * y), y, (m[1, 2] + m[2, 1]) / (4 * y)]
+    else:
+        z = 0.5 * math.sqrt(1.0 + 2 * m[2, 2] - t)
+        q = [(m[1, 0] - m[0, 1]) / (4 * z), (m[0, 2] + m[2, 0]) / (4 * z), (m[1, 2] + m[2, 1]) / (4 * z), z]
+    q = np.array(q)
+    q = q if q[0] >= 0.0 else -q  # q and -q are the same turn: the one with w >= 0
+    return q / np.linalg.norm(q)
+
+
 def randomRotation(rng):
     """Uniformly distributed rotation matrix (Shoemake's uniform unit quaternion)."""
     u1, u2, u3 = rng.uniform(size=3)
@@ -532,10 +566,7 @@ def randomRotation(rng):
     x = math.sqrt(1.0 - u1) * math.cos(2.0 * math.pi * u2)
     y = math.sqrt(u1) * math.sin(2.0 * math.pi * u3)
     z = math.sqrt(u1) * math.cos(2.0 * math.pi * u3)
-    return np.array([[1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)],
-                     [2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)],
-                     [2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)]])
-
+    return rotationFromQuaternions((w, x, y, z))
 
 # --------------------------------------------------------------------------------------------------
 # Shape library access and grading-conform stone sampling

@@ -102,15 +102,27 @@ class AngleOfRepose(Case):
             if cleared >= p["duration_s"]:
                 problems.append(f"the gate opens at hopper_gate_s = {p['hopper_gate_s']:g} s and clears the aperture "
                                 f"at {cleared:g} s, not before duration_s = {p['duration_s']:g} s: nothing could pile")
+        if self.on_library(p) and p["particle_shape"] == "sphere":
+            if p["material"] != "ballast":
+                problems.append("dem_driver = \"standalone\" runs ballast spheres only (material = \"ballast\")")
+            if p["base_radius"] > 0.0:
+                problems.append("dem_driver = \"standalone\" has no fixed base (the polyhedra library has no fixed "
+                                "bodies): base_radius must be 0")
         if p["particle_shape"] == "polyhedron" and p["friction_model"] != "constant":
             problems.append("particle_shape = \"polyhedron\" has constant friction only "
                             "(friction_model = \"constant\")")
         return problems
 
+    @staticmethod
+    def on_library(p):
+        """Whether the run is polyhedra_dem.py's: polyhedra always, spheres with dem_driver = "standalone"."""
+        return p["particle_shape"] == "polyhedron" or (p["particle_shape"] == "sphere" and
+                                                        p["dem_driver"] == "standalone")
+
     def dem_command(self, p, endpoint, out):
-        """dem.py on YADE, or polyhedra_dem.py (particle_shape = "polyhedron": the polyhedra library without YADE, the
-        GPU machine's path) on this Python with dem_threads OpenMP threads."""
-        if p["particle_shape"] != "polyhedron":
+        """dem.py on YADE, or polyhedra_dem.py (polyhedra, and spheres with dem_driver = "standalone": the polyhedra
+        library without YADE, the GPU machine's path) on this Python with dem_threads OpenMP threads."""
+        if not self.on_library(p):
             return super().dem_command(p, endpoint, out)
         return ["env", f"OMP_NUM_THREADS={p['dem_threads']}", sys.executable,
                 os.path.join(p["case_dir"], "polyhedra_dem.py"), os.path.join(out, "parameters.json"), endpoint, out]

@@ -20,7 +20,7 @@ GRAVITY = 9.81
 sys.path[:0] = [os.path.join(os.environ["RAILCOSIM_ROOT"], "yade_engines", "clusters"), p["case_dir"]]
 import ballast_clusters  # noqa: E402
 import pack_ballast  # noqa: E402
-from rig import Hopper, base_lattice  # noqa: E402
+from rig import Hopper, base_lattice, sphere_diameters  # noqa: E402
 
 rng = np.random.default_rng(p["seed"])
 
@@ -71,13 +71,7 @@ z0 = hopper.z0
 #    either).
 #    Wheat: diameters uniform in [grain_diameter_min, grain_diameter_max] (Ullrich 2022 Table 5.1: 3-5 mm).
 if shape == "sphere":
-    diameters, mass = [], 0.0
-    while mass < p["ballast_mass_kg"]:
-        d = (rng.uniform(p["grain_diameter_min"], p["grain_diameter_max"]) if wheat else
-             1e-3 * ballast_clusters.sampleSieveSizes(rng, 1)[0])
-        diameters.append(d)
-        mass += density * math.pi / 6.0 * d ** 3
-    reaches = 0.5 * np.array(diameters)
+    reaches = 0.5 * sphere_diameters(p, rng, density, wheat)
 else:
     library = ballast_clusters.loadShapeLibrary()
     stones = ballast_clusters.sampleBallastStones(library, rng, p["ballast_mass_kg"] / p["particle_density"],

@@ -1,11 +1,16 @@
-# DEM participant of the angle-of-repose case for particle_shape = "polyhedron": the shape library's stones as dilated
-# polyhedra (each hull's core shrunk and rounded by r_d = dilation_fraction x sieve size so that its volume stays;
-# Hertz contacts of the dilation's curvature, Mindlin friction) on the polyhedra library through its C interface
-# (railcosim.polyhedra_driver), without YADE: the GPU machine's path. The rig is dem.py's (rig.py: the same hopper,
-# lattice and floor); the stones are drawn as the clusters are (sampleBallastStones: shape, sieve size, turn), from
-# the same seed; with hopper_gate_s > 0 they settle in the hopper on a sliding gate first. Differences from dem.py:
-# no fixed base (the library has no fixed bodies: base_radius must be 0), the kinetic energy's rotational part from
-# the undilated hull's principal inertia, the floor's reaction from the library's mean force over each step batch.
+# DEM participant of the angle-of-repose case on the polyhedra library through its C interface
+# (railcosim.polyhedra_driver), without YADE: the GPU machine's path. Two kinds of stones:
+# - particle_shape = "polyhedron": the shape library's stones as dilated polyhedra (each hull's core shrunk and rounded
+#   by r_d = dilation_fraction x sieve size so that its volume stays), drawn as the clusters are (sampleBallastStones:
+#   shape, sieve size, turn), from the same seed; no rolling friction (T2: shape alone);
+# - particle_shape = "sphere" with dem_driver = "standalone": dem.py's spheres (the same draw of diameters, from the same
+#   seed) as one-point cores dilated by their radius, with the library's bounded rolling friction (η_r rolling_friction
+#   between spheres, floor_rolling_friction against the floor, the pair taking the larger).
+# Hertz contacts of the dilation's curvature, Mindlin friction. The rig is dem.py's (rig.py: the same hopper, lattice
+# and floor); with hopper_gate_s > 0 the stones settle in the hopper on a sliding gate first. Differences from dem.py:
+# no fixed base (the library has no fixed bodies: base_radius must be 0), a polyhedron's rotational kinetic energy
+# from the undilated hull's principal inertia, the floor's reaction from the library's mean force over each step
+# batch, the rotation integrated by Zhao-van Wachem (dem.py's spheres: YADE's leapfrog).
 # Run by `railcosim run` as: python3 polyhedra_dem.py PARAMETERS.json ENDPOINT OUTDIR (DEM-only: no endpoint used)
 import math
 import os
@@ -20,7 +25,7 @@ sys.path[:0] = [HERE, os.path.join(ROOT, "python"), os.path.join(ROOT, "yade_eng
 import ballast_clusters  # noqa: E402
 from railcosim import dem as dem_arguments  # noqa: E402  (YADE-free: the participant's arguments)
 from railcosim import polyhedra_driver, results  # noqa: E402
-from rig import Hopper  # noqa: E402
+from rig import Hopper, sphere_diameters  # noqa: E402
 
 GRAVITY = 9.81
 FLOOR_HALF = 5.0  # m, half the side of the floor's square: the piles of this case spread over less than 1.5 m
@@ -29,9 +34,12 @@ p, _, out = dem_arguments.participant_arguments()
 rng = np.random.default_rng(p["seed"])
 hopper = Hopper(p)
 r = p["dilation_fraction"]
+spheres = p["particle_shape"] == "sphere"
+time_step = p["dem_dt"] if spheres else p["polyhedron_dt"]
+step_name = "dem_dt" if spheres else "polyhedron_dt"
 
 # 1. Materials (Irazábal 2017 Tables 6.1, 6.2): ballast and floor share E and ν; μ between stones and against the floor
-#    (the law takes the smaller μ of a pair), a frictionless hopper (§6.2.1); no rolling friction (T2: shape alone).
+#    (the law takes the smaller μ of a pair), a frictionless hopper (§6.2.1); rolling friction on spheres only.
 young, poisson, restitution = p["particle_young"], p["particle_poisson"], p["restitution"]
 stone_material = (young, poisson, restitution, p["friction"])
 wall_materials = [(young, poisson, restitution, p["floor_friction"]), (young, poisson, restitution, 0.0)]
@@ -40,23 +48,34 @@ wall_materials = [(young, poisson, restitution, p["floor_friction"]), (young, po
 #    library's hull at its sieve size, its core shrunk about the centroid (the origin of the library's principal axes)
 #    and dilated by r_d = r x size so that the dilated stone has the hull's volume (Steiner's formula, exact): the
 #    hull's mass, its extents from 5 % below the hull's to 0.2 % above (r = 0.03).
-library = ballast_clusters.loadShapeLibrary()
-shapes = {s["name"]: s for s in library["shapes"]}
 density = p["particle_density"]
-try:
-    scales = {name: ballast_clusters.dilatedCoreScale(s["vertices"], s["triangles"], r) for name, s in shapes.items()}
-except ValueError as error:
-    raise SystemExit(f"polyhedra_dem.py: {error}")
-target_volume = p["ballast_mass_kg"] / density
-drawn, volume = [], 0.0
-while volume < target_volume:
-    # one stone a call: sampleBallastStones stops once its (cluster's) volume passes the target, the hull's here
-    stone = ballast_clusters.sampleBallastStones(library, rng, 1e-12, level="coarse", density=density)[0]
-    drawn.append(stone)
-    volume += shapes[stone["shape"]]["volume"] * stone["sieveSize"] ** 3
-cores = [np.asarray(shapes[s["shape"]]["vertices"], float) * s["sieveSize"] * scales[s["shape"]] for s in drawn]
-dilations = np.array([r * s["sieveSize"] for s in drawn])
-inertia = np.array([density * np.asarray(shapes[s["shape"]]["principalInertia"]) * s["sieveSize"] ** 5 for s in drawn])
+if spheres:
+    # dem.py's draw (rig.sphere_diameters, the same seed): a point core dilated by the radius is the sphere
+    sizes = sphere_diameters(p, rng, density)
+    dilations = 0.5 * sizes
+    cores = [np.zeros((1, 3)) for _ in sizes]
+    orientations = [(1.0, 0.0, 0.0, 0.0)] * len(sizes)
+    inertia = np.outer(0.4 * density * math.pi / 6.0 * sizes ** 3 * dilations ** 2, np.ones(3))
+else:
+    library = ballast_clusters.loadShapeLibrary()
+    shapes = {s["name"]: s for s in library["shapes"]}
+    try:
+        scales = {name: ballast_clusters.dilatedCoreScale(s["vertices"], s["triangles"], r) for name, s in shapes.items()}
+    except ValueError as error:
+        raise SystemExit(f"polyhedra_dem.py: {error}")
+    target_volume = p["ballast_mass_kg"] / density
+    drawn, volume = [], 0.0
+    while volume < target_volume:
+        # one stone a call: sampleBallastStones stops once its (cluster's) volume passes the target, the hull's here
+        stone = ballast_clusters.sampleBallastStones(library, rng, 1e-12, level="coarse", density=density)[0]
+        drawn.append(stone)
+        volume += shapes[stone["shape"]]["volume"] * stone["sieveSize"] ** 3
+    sizes = np.array([s["sieveSize"] for s in drawn])
+    cores = [np.asarray(shapes[s["shape"]]["vertices"], float) * s["sieveSize"] * scales[s["shape"]] for s in drawn]
+    dilations = r * sizes
+    orientations = [ballast_clusters.quaternionFromRotation(s["rotation"]) for s in drawn]
+    inertia = np.array([density * np.asarray(shapes[s["shape"]]["principalInertia"]) * s["sieveSize"] ** 5
+                        for s in drawn])
 reaches = np.array([np.linalg.norm(c, axis=1).max() + d for c, d in zip(cores, dilations)])
 centres, bin_top, _ = hopper.lattice(reaches, rng)
 
@@ -65,11 +84,14 @@ centres, bin_top, _ = hopper.lattice(reaches, rng)
 #    triangles each, counter-clockwise seen from the stones).
 # Neighbour lists: a skin of 5 % of the mean size (about 2 mm; the lists are rebuilt adaptively, as stones move);
 # 64 candidates, since a 22 mm stone among 63 mm ones has many within its reach plus skin (24 overflowed at 60 kg).
-bed = polyhedra_driver.PolyhedraBed(p["polyhedron_dt"], stone_material, gravity=(0.0, 0.0, -GRAVITY), max_neighbours=64,
-                                    neighbour_skin=0.05 * float(np.mean([s["sieveSize"] for s in drawn])),
-                                    backend=p["polyhedra_backend"])
-for stone, core, dilation, centre in zip(drawn, cores, dilations, centres):
-    bed.add_stone(core, dilation, density, centre, ballast_clusters.quaternionFromRotation(stone["rotation"]))
+bed = polyhedra_driver.PolyhedraBed(time_step, stone_material, gravity=(0.0, 0.0, -GRAVITY), max_neighbours=64,
+                                    neighbour_skin=0.05 * float(np.mean(sizes)), backend=p["polyhedra_backend"])
+if spheres:
+    # BROF (Irazábal 2017 §5.2.1): η_r between spheres; against the floor its own, the frictionless hopper none (the
+    # pair takes the larger: the spheres' η_r on the hopper too, as in dem.py)
+    bed.set_rolling_friction(p["rolling_friction"], [p["floor_rolling_friction"], 0.0])
+for core, dilation, centre, orientation in zip(cores, dilations, centres, orientations):
+    bed.add_stone(core, dilation, density, centre, orientation)
 F = FLOOR_HALF
 triangles = [[(-F, -F, 0), (F, -F, 0), (F, F, 0)], [(-F, -F, 0), (F, F, 0), (-F, F, 0)]]
 for q in hopper.walls(bin_top):
@@ -86,14 +108,15 @@ bed.set_walls(np.array(triangles, float), [0, 0] + [1] * (len(triangles) - 2), w
 bed.initialize()
 impact = math.sqrt(2.0 * GRAVITY * bin_top)  # the fastest landing: from the lattice's top to the floor
 critical = bed.critical_time_step(impact_velocity=impact)
-if p["polyhedron_dt"] > 0.5 * critical:
-    raise SystemExit(f"polyhedra_dem.py: polyhedron_dt = {p['polyhedron_dt']:g} s is above half the contacts' critical "
+if time_step > 0.5 * critical:
+    raise SystemExit(f"polyhedra_dem.py: {step_name} = {time_step:g} s is above half the contacts' critical "
                      f"step {critical:.3g} s at the {impact:.2f} m/s impact (E = {young:g} Pa): take at most "
                      f"{0.5 * critical:.3g} s")
 _, _, _, _, masses = bed.states()
 total_mass = float(masses.sum())
 backend, reason = bed.backend
-print(f"{len(drawn)} polyhedra (r_d {r:g} x size), {total_mass:.2f} kg, lattice up to {bin_top:.3f} m; "
+kind = f"spheres (η_r {p['rolling_friction']:g})" if spheres else f"polyhedra (r_d {r:g} x size)"
+print(f"{len(sizes)} {kind}, {total_mass:.2f} kg, lattice up to {bin_top:.3f} m; "
       f"dt {bed.dt:.3g} s (critical {critical:.3g} s at {impact:.2f} m/s); {backend} ({reason})", flush=True)
 
 
@@ -170,11 +193,12 @@ pos, q, _, _, _ = bed.states()
 R = ballast_clusters.rotationFromQuaternions(q)
 points = np.concatenate([np.column_stack([pos[k] + core @ R[k].T, np.full(len(core), dilations[k])])
                          for k, core in enumerate(cores)])
-info = {"steps": steps, "dt": bed.dt, "wall_time_s": wall_time, "particles": len(drawn), "spheres": 0,
+info = {"steps": steps, "dt": bed.dt, "wall_time_s": wall_time, "particles": len(sizes),
+        "spheres": len(sizes) if spheres else 0,
         "surface_points": len(points),
         "ballast_mass_kg": total_mass, "simulated_s": bed.time, "material": p["material"], "left_particles": 0,
         "left_mass_kg": 0.0, "base_spheres": 0, "base_top_m": 0.0, "initial_energy_j": initial_energy,
-        "at_rest": at_rest, "mean_diameter_m": float(np.mean([s["sieveSize"] for s in drawn])),
+        "at_rest": at_rest, "mean_diameter_m": float(np.mean(sizes)),
         "polyhedra_backend": backend, "critical_dt": critical}
 results.save_dem_outputs(out, recorder, info, spheres=points, particle_centres=pos, particle_masses=masses)
 print(f"done: {steps} steps in {wall_time:.1f} s ({backend})", flush=True)

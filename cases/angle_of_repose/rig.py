@@ -1,6 +1,6 @@
-"""The angle-of-repose rig without YADE: the hopper, the starting lattice and the fixed base, the one scene description
-of both DEM drivers (dem.py on YADE for spheres and clusters, polyhedra_dem.py on the polyhedra library for
-polyhedra, the GPU machine's path).
+"""The angle-of-repose rig without YADE: the hopper, the starting lattice, the fixed base and the spheres' sizes, the one
+scene description of both DEM drivers (dem.py on YADE for spheres and clusters, polyhedra_dem.py on the polyhedra
+library for polyhedra and spheres, the GPU machine's path).
 
 The floor is z = 0. The hopper is a square funnel with walls at hopper_wall_angle_deg to the horizontal, narrowing to
 the square aperture (side hopper_aperture) at drop_height above the floor, and a vertical square bin on top of it that
@@ -8,6 +8,20 @@ holds the starting lattice; its axis is the z axis (Irazábal 2017 §6.2.1)."""
 import math
 
 import numpy as np
+
+import ballast_clusters
+
+
+def sphere_diameters(p, rng, density, wheat=False):
+    """Sphere diameters [m] drawn until their mass reaches ballast_mass_kg: sieve sizes from the middle of the EN 13450
+    band (Irazábal 2017 Table 2.1), or for wheat uniform in [grain_diameter_min, grain_diameter_max]."""
+    diameters, mass = [], 0.0
+    while mass < p["ballast_mass_kg"]:
+        d = (rng.uniform(p["grain_diameter_min"], p["grain_diameter_max"]) if wheat else
+             1e-3 * ballast_clusters.sampleSieveSizes(rng, 1)[0])
+        diameters.append(d)
+        mass += density * math.pi / 6.0 * d ** 3
+    return np.array(diameters)
 
 
 class Hopper:

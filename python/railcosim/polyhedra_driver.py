@@ -59,6 +59,7 @@ def _library():
         signatures = {
             "rcp_last_error": (s, []), "rcp_create": (p, [d, _D, _D, i, i, i, d, i, d, s]), "rcp_destroy": (None, [p]),
             "rcp_add_stone": (i, [p, _D, i, d, d, _D, _D, _D, _D]), "rcp_set_walls": (i, [p, _D, i, _I, _D, i]),
+            "rcp_set_rolling_friction": (i, [p, d, _D, i]),
             "rcp_initialize": (i, [p]), "rcp_critical_time_step": (d, [p, d, d]), "rcp_set_time_step": (i, [p, d]),
             "rcp_time_step": (d, [p]), "rcp_set_wall_velocity": (i, [p, _I, i, _D]),
             "rcp_set_wall_node_velocities": (i, [p, _I, i, _D]), "rcp_step": (i, [p, i]),
@@ -145,6 +146,13 @@ class PolyhedraBed:
         if result is None or (isinstance(result, (int, float)) and result < 0):
             raise DriverError(self._lib.rcp_last_error().decode())
         return result
+
+    def set_rolling_friction(self, stones, walls=()):
+        """Bounded rolling friction η_r [-] of the stones and of the first len(walls) wall materials (set_walls'
+        order; the rest 0); a pair takes the larger of its two. It turns sphere stones only (one core vertex, the
+        dilation its radius). Before the first add_stone."""
+        w = _doubles(walls)
+        self._check(self._lib.rcp_set_rolling_friction(self._handle, float(stones), _pointer(w), w.size))
 
     def add_stone(self, vertices, dilation, density, position, orientation, velocity=(0, 0, 0),
                   angular_velocity=(0, 0, 0)):

@@ -2,6 +2,7 @@
 // backend: shared by the CPU test (PolyhedraContactTest.cpp) and the GPU comparison (PolyhedraGpuComparison.cpp).
 #pragma once
 
+#include <algorithm>
 #include <cmath>
 #include <vector>
 
@@ -93,6 +94,69 @@ inline double runImpactScenario(polyhedra::Backend backend) {
     if (touched && system.positions()[2] > scenario::radius + 1e-7) break;
   }
   return system.velocities()[2] / scenario::impactSpeed;
+}
+
+// Bounded rolling friction on a sphere (Irazábal 2017 §5.3, Table 5.2 material; R = 0.05 m, Δt 5e-5 s) on a rigid
+// 2 m square floor, the path kept over one triangle's interior. Rigid-body oracles (Ai et al. 2011 test cases 1 and 2,
+// closed forms for a rolling sphere with the resistance e_c |F_n| = η_r R m g cos β): on the flat, from v0 = 1 m/s
+// without spin, slip then roll with a = −(5/7) η_r g, stopping at t = 0.5097 s, x = 0.18836 m (η_r 0.2, μ 0.8); up a
+// 10° slope from pure rolling at 1 m/s, a sphere with η_r > tan 10° stops at v0² / (2 (5/7) g (sin β + η_r cos β))
+// and stays, one with η_r < tan 10° rolls back.
+struct RollingRun {
+  double stopTime = -1.0;  // first step at which the velocity along the path is <= 0 [s]
+  double stopX = 0.0;      // travel then [m]
+  double top = 0.0;        // largest travel [m]
+  double finalX = 0.0;     // travel at the end [m]
+  double finalSpin = 0.0;  // |ω| at the end [rad/s]
+};
+constexpr double rollingRadius = 0.05, rollingGravity = 9.81;
+
+inline RollingRun runRollingScenario(polyhedra::Backend backend, double rollingFriction, double slopeDegrees,
+                                     bool rollingStart) {
+  using namespace polyhedra;
+  polyhedra::Parameters p;
+  p.timeStep = 5e-5;
+  const double beta = slopeDegrees * 3.14159265358979323846 / 180.0;
+  p.gravity = {-rollingGravity * std::sin(beta), 0.0, -rollingGravity * std::cos(beta)};
+  p.stone = Material{4e7, 0.49, 0.2, 0.8};
+  p.stone.rollingFriction = rollingFriction;
+  p.wall = Material{4e7 * 1e6, 0.49, 0.2, 0.8}; // rigid: E* of the pair is the sphere's E/(1 − ν²)
+  p.backend = backend;
+  PolyhedraSystem system(p);
+  polyhedra::ShapeTemplate sphere;
+  sphere.vertices = {0.0, 0.0, 0.0};
+  sphere.dilationRadius = rollingRadius;
+  sphere.density = 1056.0;
+  const int shape = system.addShape(sphere);
+  system.setWalls({-1, -1, 0, 1, -1, 0, 1, 1, 0, -1, 1, 0}, {0, 1, 2, 0, 2, 3});
+  const double mass = 1056.0 * 4.0 / 3.0 * 3.14159265358979323846 * std::pow(rollingRadius, 3);
+  const double eStar = 4e7 / (1.0 - 0.49 * 0.49);
+  // Start at the static Hertz overlap under the normal weight.
+  const double overlap = std::pow(3.0 * mass * rollingGravity * std::cos(beta) / (4.0 * eStar * std::sqrt(rollingRadius)),
+                                  2.0 / 3.0);
+  const double x0 = -0.8, y0 = 0.5; // the diagonal x = y is 1.3 m away
+  system.addStone(shape, {x0, y0, rollingRadius - overlap}, {1, 0, 0, 0}, {1.0, 0.0, 0.0},
+                  {0.0, rollingStart ? 1.0 / rollingRadius : 0.0, 0.0});
+  RollingRun run;
+  for (int step = 0; step < 24000; ++step) { // 1.2 s
+    system.step(1);
+    const double x = system.positions()[0] - x0;
+    run.top = std::max(run.top, x);
+    if (run.stopTime < 0.0 && system.velocities()[0] <= 0.0) {
+      run.stopTime = (step + 1) * p.timeStep;
+      run.stopX = x;
+    }
+  }
+  run.finalX = system.positions()[0] - x0;
+  const std::vector<double> w = system.angularVelocities();
+  run.finalSpin = std::sqrt(w[0] * w[0] + w[1] * w[1] + w[2] * w[2]);
+  return run;
+}
+
+// The top of the climb up the slope for a sphere that stays there [m].
+inline double rollingSlopeTop(double rollingFriction, double slopeDegrees) {
+  const double beta = slopeDegrees * 3.14159265358979323846 / 180.0;
+  return 1.0 / (2.0 * 5.0 / 7.0 * rollingGravity * (std::sin(beta) + rollingFriction * std::cos(beta)));
 }
 
 } // namespace railcosim::testing

@@ -18,7 +18,7 @@ struct HostData {
   int stoneCount = 0;
   std::vector<double> position, velocity;
   std::vector<kernels::RotationState> rotation;
-  std::vector<double> force, torque, referencePosition;
+  std::vector<double> force, torque, rollingBudget, referencePosition;
   std::vector<std::int32_t> shape;
   std::vector<ShapeData> shapes;
   std::vector<double> shapeVertices;
@@ -83,6 +83,7 @@ void visitStateArrays(Data& d, Visitor&& visit) {
   visit("rotation", d.rotation);
   visit("force", d.force);
   visit("torque", d.torque);
+  visit("rollingBudget", d.rollingBudget);
   visit("referencePosition", d.referencePosition);
   visit("nodePosition", d.nodePosition);
   visit("nodeVelocity", d.nodeVelocity);

@@ -110,6 +110,9 @@ struct SystemView {
   kernels::RotationState* rotation; // q, world ω (mid-step between predict and correct) and ZvW scratch
   double* force;
   double* torque;
+  // Bounded rolling friction (Irazábal 2017 §5.2.1): Σ e_c |F_n| over the stone's contacts of the last evaluation
+  // [N m], read by the next correct and predict; it acts on sphere stones only (a one-vertex core).
+  double* rollingBudget;
   double* referencePosition; // position at the last neighbour rebuild
   const std::int32_t* shape;
   const ShapeData* shapes;
@@ -235,6 +238,20 @@ RAILCOSIM_HOST_DEVICE inline Vec3 principalInertia(const ShapeData& shape) {
   return Vec3{shape.inertia[0], shape.inertia[1], shape.inertia[2]};
 }
 
+// The torque that stone i's spin takes in a half kick from `omega`: the contacts' torque of the last evaluation
+// plus, for a sphere with a rolling budget, the bounded rolling torque (kernels/BoundedRollingFriction.hpp). For a
+// sphere (isotropic inertia, no gyroscopic term) both halves of Zhao–van Wachem are plain kicks ω += (Δt/2) T/I:
+// the predictor's from ω^n with this evaluation's torque, the corrector's from ω^{n+1/2} (eq. 5.54a with
+// ω^{n+1/2} = ω^n + (Δt/2) T^n/I). Bounding each kick with h = Δt/2 stops a spin at zero and never reverses it.
+RAILCOSIM_HOST_DEVICE inline Vec3 halfKickTorque(const SystemView& s, int i, const ShapeData& shape,
+                                                 const Vec3& omega) {
+  const Vec3 torque = load3(s.torque, i);
+  if (shape.vertexCount != 1) return torque;
+  const double budget = s.rollingBudget[i];
+  if (!(budget > 0.0)) return torque;
+  return torque + kernels::boundedRollingTorque(omega, shape.inertia[0], 0.5 * s.timeStep, torque, budget);
+}
+
 // `rotation`: stone i's rotation state, s.rotation[i] or a staged copy of it (the GPU stages a block's states
 // through shared memory, since one thread per 240-byte state reads and writes them field by field).
 RAILCOSIM_HOST_DEVICE inline void predictStone(const SystemView& s, int i, kernels::RotationState& rotation) {
@@ -246,10 +263,12 @@ RAILCOSIM_HOST_DEVICE inline void predictStone(const SystemView& s, int i, kerne
   kernels::velocityVerletDrift(position, velocity, dt);
   store3(s.velocity, i, velocity);
   store3(s.position, i, position);
-  kernels::zhaoVanWachemPredict(rotation, principalInertia(shape), load3(s.torque, i), dt);
+  kernels::zhaoVanWachemPredict(rotation, principalInertia(shape), halfKickTorque(s, i, shape, rotation.angularVelocity),
+                                dt);
   // Forces of the next evaluation accumulate from zero.
   store3(s.force, i, Vec3{0.0, 0.0, 0.0});
   store3(s.torque, i, Vec3{0.0, 0.0, 0.0});
+  s.rollingBudget[i] = 0.0;
   const Vec3 moved = position - load3(s.referencePosition, i);
   if (kernels::squaredNorm(moved) > 0.25 * s.skin * s.skin) atomicMaximum(&s.counters[counterDangerous], 1ull);
 }
@@ -259,7 +278,8 @@ RAILCOSIM_HOST_DEVICE inline void correctStone(const SystemView& s, int i, kerne
   Vec3 velocity = load3(s.velocity, i);
   kernels::velocityVerletHalfKick(velocity, load3(s.force, i) + shape.mass * s.gravity, shape.mass, s.timeStep);
   store3(s.velocity, i, velocity);
-  kernels::zhaoVanWachemCorrect(rotation, principalInertia(shape), load3(s.torque, i), s.timeStep);
+  kernels::zhaoVanWachemCorrect(rotation, principalInertia(shape), halfKickTorque(s, i, shape, rotation.angularVelocity),
+                                s.timeStep);
 }
 
 RAILCOSIM_HOST_DEVICE inline void predictStone(const SystemView& s, int i) { predictStone(s, i, s.rotation[i]); }
@@ -556,7 +576,7 @@ RAILCOSIM_HOST_DEVICE inline ContactGeometry contactGeometry(const ConvexCore& A
 RAILCOSIM_HOST_DEVICE inline Vec3 contactForce(const ContactGeometry& g, double effectiveRadius, double effectiveMass,
                                                const kernels::ContactLaw& pairLaw, const ContactKinematics& kinematicsA,
                                                const ContactKinematics& kinematicsB, double timeStep, ContactSlot& slot,
-                                               kernels::NormalHistory* normalHistory) {
+                                               kernels::NormalHistory* normalHistory, double* rollingMoment = nullptr) {
   const Vec3 n = g.normal;
   const Vec3 velocityA = kinematicsA.velocity + kernels::cross(kinematicsA.omega, g.point - kinematicsA.centre);
   const Vec3 velocityB = kinematicsB.velocity + kernels::cross(kinematicsB.omega, g.point - kinematicsB.centre);
@@ -590,6 +610,7 @@ RAILCOSIM_HOST_DEVICE inline Vec3 contactForce(const ContactGeometry& g, double 
   slot.normal[2] = n.z;
   slot.tangentialStiffness = static_cast<float>(r.history.previousTangentialStiffness);
   if (normalHistory) *normalHistory = r.history.normal;
+  if (rollingMoment) *rollingMoment = r.rollingResistanceMoment;
   return r.normalForce * n + r.shearForce;
 }
 
@@ -685,11 +706,16 @@ RAILCOSIM_HOST_DEVICE inline PairOutcome pairContact(const SystemView& s, int i,
   const ContactKinematics kinematicsA{load3(s.velocity, i), s.rotation[i].angularVelocity, load3(s.position, i)};
   const ContactKinematics kinematicsB{load3(s.velocity, partner), s.rotation[partner].angularVelocity,
                                       load3(s.position, partner)};
+  double rollingMoment = 0.0;
   const Vec3 force =
       contactForce(g, kernels::effectiveRadius(shapeA.dilationRadius, shapeB.dilationRadius),
                    kernels::effectiveMass(shapeA.mass, shapeB.mass), s.stoneLaw, kinematicsA, kinematicsB, s.timeStep,
-                   slot, s.pairNormalHistory ? s.pairNormalHistory + index : nullptr);
+                   slot, s.pairNormalHistory ? s.pairNormalHistory + index : nullptr, &rollingMoment);
   s.pairSlots[index] = slot;
+  if (rollingMoment > 0.0) {
+    atomicAccumulate(s.rollingBudget + i, rollingMoment);
+    atomicAccumulate(s.rollingBudget + partner, rollingMoment);
+  }
   writeContactOutput(s, s.pairOutput[index], g.point, force, g.overlap);
   atomicAccumulate3(s.force, partner, force);
   atomicAccumulate3(s.torque, partner, kernels::cross(g.point - kinematicsB.centre, force));
@@ -797,6 +823,7 @@ RAILCOSIM_HOST_DEVICE inline int stoneWallForces(const SystemView& s, int i) {
   const ShapeData& shapeA = s.shapes[s.shape[i]];
   const Vec3 xA = load3(s.position, i);
   Vec3 forceA{0.0, 0.0, 0.0}, torqueA{0.0, 0.0, 0.0};
+  double rollingA = 0.0;
   int active = 0;
   constexpr int maxAccepted = 4;
   Vec3 acceptedNormal[maxAccepted];
@@ -820,8 +847,10 @@ RAILCOSIM_HOST_DEVICE inline int stoneWallForces(const SystemView& s, int i) {
     const ContactKinematics kinematicsB{velocity, Vec3{0.0, 0.0, 0.0}, nearest};
     // A duplicate keeps its tangential spring up to date too (it takes over when its twin separates).
     const kernels::ContactLaw& wallLaw = s.wallLaws[s.triangleMaterial ? s.triangleMaterial[partner] : 0];
+    double rollingMoment = 0.0;
     const Vec3 force = contactForce(g, shapeA.dilationRadius, shapeA.mass, wallLaw, kinematicsA, kinematicsB,
-                                    s.timeStep, slot, s.wallNormalHistory ? s.wallNormalHistory + index : nullptr);
+                                    s.timeStep, slot, s.wallNormalHistory ? s.wallNormalHistory + index : nullptr,
+                                    &rollingMoment);
     bool duplicate = false;
     for (int m = 0; m < acceptedCount; ++m) {
       duplicate = duplicate || (kernels::dot(acceptedNormal[m], g.normal) > 1.0 - 1e-9 &&
@@ -842,11 +871,13 @@ RAILCOSIM_HOST_DEVICE inline int stoneWallForces(const SystemView& s, int i) {
     writeContactOutput(s, s.wallOutput[index], g.point, force, g.overlap);
     forceA -= force;
     torqueA -= kernels::cross(g.point - xA, force);
+    rollingA += rollingMoment;
     accumulateTriangleSums(s, partner, force, g.point);
   }
   if (active > 0) {
     atomicAccumulate3(s.force, i, forceA);
     atomicAccumulate3(s.torque, i, torqueA);
+    if (rollingA > 0.0) atomicAccumulate(s.rollingBudget + i, rollingA);
   }
   return active;
 }

@@ -147,16 +147,17 @@ Quat quaternionFromMatrix(const double m[3][3]) {
 kernels::ContactMaterial contactMaterialOf(const Material& m) {
   return kernels::ContactMaterial{
       m.youngModulus,     m.poissonRatio,     m.restitution,      m.friction,         m.roughnessRms,
-      m.fractalDimension, m.plasticUnloading, m.frictionExponent, m.maxContactStress, 0.0};
+      m.fractalDimension, m.plasticUnloading, m.frictionExponent, m.maxContactStress, m.rollingFriction};
 }
 
 // The one mixing rule of the contact law (kernels/ContactLaw.hpp). Stones are separate particles, so the
 // stress-dependent friction of different clusters applies between them (where its parameters are set), never against
-// a wall; they are not spheres, so no rolling resistance.
+// a wall. Every law carries the rolling arm of its η_r; the rolling torque acts on sphere stones only
+// (PolyhedraStep.hpp, halfKickTorque).
 kernels::ContactLaw lawOf(const Material& a, const Material& b, bool betweenStones, const char* which) {
   try {
     return kernels::mixContactLaw(contactMaterialOf(a), contactMaterialOf(b),
-                                  kernels::ContactPairOptions{betweenStones, false});
+                                  kernels::ContactPairOptions{betweenStones, true});
   } catch (const std::invalid_argument& e) {
     fail("PolyhedraSystem", std::string("material of ") + which + " contacts: " + e.what());
   }
@@ -167,7 +168,7 @@ kernels::ContactLaw lawOf(const Material& a, const Material& b, bool betweenSton
 // or of a record it holds changes; the record sizes are written too, so that a changed struct is caught even if
 // the version was not raised.
 constexpr char stateMagic[8] = {'R', 'C', 'P', 'O', 'L', 'Y', 'S', 'T'};
-constexpr std::uint32_t stateVersion = 1;
+constexpr std::uint32_t stateVersion = 2; // 2: the rolling budget (bounded rolling friction) after the torque
 
 template <class T>
 void writeValue(std::ostream& out, const T& value) {
@@ -248,6 +249,7 @@ Material materialOf(const kernels::ContactMaterial& m) {
   result.plasticUnloading = m.plasticUnloading;
   result.frictionExponent = m.frictionExponent;
   result.maxContactStress = m.maxContactStress;
+  result.rollingFriction = m.rollingFriction;
   return result;
 }
 

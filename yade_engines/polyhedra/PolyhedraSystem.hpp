@@ -54,10 +54,12 @@ struct Material {
   bool plasticUnloading = false; ///< elasto-plastic Pohrt–Popov (keeps F_max and δ_p per contact)
   double frictionExponent = 0.0; ///< γ_μ ≤ 0 [-] of the stress-dependent friction between stones; 0: constant μ
   double maxContactStress = 0.0; ///< σ_c,max [Pa] of the stress-dependent friction; 0: constant μ
+  /// η_r [-] of bounded rolling friction (Irazábal 2017 §5.2.1; a pair takes the larger of its two); 0: none. The
+  /// rolling torque acts on sphere stones only (a one-vertex core, whose dilation is the sphere).
+  double rollingFriction = 0.0;
 };
 
-/// The polyhedra Material of a contact-law material (kernels/ContactLaw.hpp; e.g. YADE's, from contactMaterialOf):
-/// every field but the rolling friction, which stones do not have.
+/// The polyhedra Material of a contact-law material (kernels/ContactLaw.hpp; e.g. YADE's, from contactMaterialOf).
 Material materialOf(const kernels::ContactMaterial& material);
 
 enum class Backend { Automatic, Cpu, Cuda };

@@ -12,6 +12,7 @@ void HostData::allocate() {
   auto resize = [](std::vector<double>& a, std::size_t size) { a.resize(size, 0.0); };
   resize(force, 3 * n);
   resize(torque, 3 * n);
+  resize(rollingBudget, n);
   resize(referencePosition, 3 * n);
   const ContactSlot empty{-1, 0, 0.0f, {0, 0, 0}, {0, 0, 0}, 0};
   pairSlots.assign(n * maxPairs, empty);
@@ -61,6 +62,7 @@ SystemView HostData::view() {
   v.rotation = rotation.data();
   v.force = force.data();
   v.torque = torque.data();
+  v.rollingBudget = rollingBudget.data();
   v.referencePosition = referencePosition.data();
   v.shape = shape.data();
   v.shapes = shapes.data();

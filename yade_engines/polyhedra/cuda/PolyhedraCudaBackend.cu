@@ -318,6 +318,7 @@ public:
     rotation_.upload(d.rotation, stream_);
     force_.upload(d.force, stream_);
     torque_.upload(d.torque, stream_);
+    rollingBudget_.upload(d.rollingBudget, stream_);
     reference_.upload(d.referencePosition, stream_);
     shape_.upload(d.shape, stream_);
     shapes_.upload(d.shapes, stream_);
@@ -456,6 +457,7 @@ public:
     rotation_.download(d.rotation, stream_);
     force_.download(d.force, stream_);
     torque_.download(d.torque, stream_);
+    rollingBudget_.download(d.rollingBudget, stream_);
     reference_.download(d.referencePosition, stream_);
     nodePosition_.download(d.nodePosition, stream_);
     triangleForce_.download(d.triangleForceSum, stream_);
@@ -555,6 +557,7 @@ private:
     visit(rotation_, saved_.rotation);
     visit(force_, saved_.force);
     visit(torque_, saved_.torque);
+    visit(rollingBudget_, saved_.rollingBudget);
     visit(reference_, saved_.reference);
     visit(nodePosition_, saved_.nodePosition);
     visit(nodeVelocity_, saved_.nodeVelocity);
@@ -584,6 +587,7 @@ private:
     v.rotation = rotation_.get();
     v.force = force_.get();
     v.torque = torque_.get();
+    v.rollingBudget = rollingBudget_.get();
     v.referencePosition = reference_.get();
     v.shape = shape_.get();
     v.shapes = shapes_.get();
@@ -734,7 +738,7 @@ private:
   cudaGraphExec_t graphs_[2][2] = {{nullptr, nullptr}, {nullptr, nullptr}}; // [parity][with rebuild]
   int current_ = 0;
   DeviceArray<kernels::RotationState> rotation_;
-  DeviceArray<double> position_, velocity_, force_, torque_, reference_, vertices_, nodePosition_, nodeVelocity_,
+  DeviceArray<double> position_, velocity_, force_, torque_, rollingBudget_, reference_, vertices_, nodePosition_, nodeVelocity_,
       triangleForce_, trianglePoint_, triangleWeight_;
   DeviceArray<std::int32_t> shape_, triangles_, triangleMaterial_, pairCount_[2], wallCount_[2], sortedStone_, rawStone_, cellStart_, largeBodies_,
       cellEnd_;
@@ -754,7 +758,7 @@ private:
   DeviceArray<unsigned> activeCount_;
   // saveSnapshot's copy of the state buffers (forEachStateBuffer pairs them with the live ones).
   struct SavedState {
-    DeviceArray<double> position, velocity, force, torque, reference, nodePosition, nodeVelocity, triangleForce,
+    DeviceArray<double> position, velocity, force, torque, rollingBudget, reference, nodePosition, nodeVelocity, triangleForce,
         trianglePoint, triangleWeight;
     DeviceArray<kernels::RotationState> rotation;
     DeviceArray<ContactSlot> pairSlots, wallSlots;

@@ -78,6 +78,7 @@ struct rcp_bed {
   std::vector<double> facetNodes, facetNodeVelocities, givenFacetNodes;
   std::vector<std::int32_t> materialOfTriangle;
   std::vector<poly::Material> wallMaterials;
+  std::vector<double> wallRollingFriction; // η_r of wall material k (rcp_set_rolling_friction); missing: 0
   bool facetsMove = false;
   std::vector<poly::ContactRecord> contacts;
   // Coupling (rcp_connect).
@@ -119,6 +120,10 @@ struct rcp_bed {
     std::vector<std::int32_t> triangles(3 * facetTriangles()), materials = materialOfTriangle;
     for (std::size_t k = 0; k < triangles.size(); ++k) triangles[k] = static_cast<std::int32_t>(k);
     std::vector<poly::Material> list = wallMaterials;
+    if (wallRollingFriction.size() > list.size())
+      throw std::invalid_argument("rcp_set_rolling_friction named " + std::to_string(wallRollingFriction.size()) +
+                                  " wall materials, rcp_set_walls gave " + std::to_string(list.size()));
+    for (std::size_t k = 0; k < wallRollingFriction.size(); ++k) list[k].rollingFriction = wallRollingFriction[k];
     surfaceFirstTriangle = facetTriangles();
     if (withSurface) {
       const auto firstNode = static_cast<std::int32_t>(coordinates.size() / 3);
@@ -431,6 +436,30 @@ int rcp_set_walls(rcp_bed* bed, const double* corners, int triangleCount, const 
         for (int k = 0; k < materialCount; ++k) bed->wallMaterials.push_back(material(materials + 4 * k));
         for (int32_t m : bed->materialOfTriangle)
           if (m < 0 || m >= materialCount) throw std::invalid_argument("a triangle names a material out of range");
+        return 0;
+      },
+      -1);
+}
+
+int rcp_set_rolling_friction(rcp_bed* bed, double stones, const double* walls, int wallCount) {
+  return guarded(
+      "rcp_set_rolling_friction",
+      [&] {
+        if (bed->system->stoneCount() > 0 || bed->initialized)
+          throw std::logic_error("rolling friction must be set before the first stone is added");
+        if (wallCount < 0 || (wallCount > 0 && !walls)) throw std::invalid_argument("wall_count must be >= 0");
+        std::vector<double> wall(walls, walls + wallCount);
+        for (double eta : wall)
+          if (!(eta >= 0.0) || std::isinf(eta))
+            throw std::invalid_argument("a wall's rolling friction must be finite and >= 0, got " + std::to_string(eta));
+        // The stone material is the system's construction parameter: a new, still empty system takes it (and
+        // validates it).
+        poly::Parameters p = bed->parameters;
+        p.stone.rollingFriction = stones;
+        p.wall.rollingFriction = stones;
+        bed->system = std::make_unique<poly::PolyhedraSystem>(p);
+        bed->parameters = p;
+        bed->wallRollingFriction = wall;
         return 0;
       },
       -1);

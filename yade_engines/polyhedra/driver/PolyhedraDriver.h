@@ -34,6 +34,10 @@ int rcp_add_stone(rcp_bed* bed, const double* vertices, int vertex_count, double
  * each into `materials` (material_count x 4). Before the first step; replaces earlier walls. */
 int rcp_set_walls(rcp_bed* bed, const double* corners, int triangle_count, const int32_t* material_of_triangle,
                   const double* materials, int material_count);
+/* Bounded rolling friction (Irazábal 2017 §5.2.1): η_r of the stones' material and of the first wall_count wall
+ * materials of rcp_set_walls (the others 0); a pair takes the larger of its two. The rolling torque acts on sphere
+ * stones only (one core vertex, the dilation its radius). Before the first rcp_add_stone. */
+int rcp_set_rolling_friction(rcp_bed* bed, double stones, const double* walls, int wall_count);
 /* Hands stones and walls to the system (done by the first step otherwise). */
 int rcp_initialize(rcp_bed* bed);
 /* PolyhedraSystem::criticalTimeStep of the stones and the walls' materials [s]; initializes. -1 on failure. */

@@ -35,8 +35,6 @@ rng = np.random.default_rng(p["seed"])
 hopper = Hopper(p)
 r = p["dilation_fraction"]
 spheres = p["particle_shape"] == "sphere"
-time_step = p["dem_dt"] if spheres else p["polyhedron_dt"]
-step_name = "dem_dt" if spheres else "polyhedron_dt"
 
 # 1. Materials (Irazábal 2017 Tables 6.1, 6.2): ballast and floor share E and ν; μ between stones and against the floor
 #    (the law takes the smaller μ of a pair), a frictionless hopper (§6.2.1); rolling friction on spheres only.
@@ -84,7 +82,7 @@ centres, bin_top, _ = hopper.lattice(reaches, rng)
 #    triangles each, counter-clockwise seen from the stones).
 # Neighbour lists: a skin of 5 % of the mean size (about 2 mm; the lists are rebuilt adaptively, as stones move);
 # 64 candidates, since a 22 mm stone among 63 mm ones has many within its reach plus skin (24 overflowed at 60 kg).
-bed = polyhedra_driver.PolyhedraBed(time_step, stone_material, gravity=(0.0, 0.0, -GRAVITY), max_neighbours=64,
+bed = polyhedra_driver.PolyhedraBed(p["polyhedron_dt"], stone_material, gravity=(0.0, 0.0, -GRAVITY), max_neighbours=64,
                                     neighbour_skin=0.05 * float(np.mean(sizes)), backend=p["polyhedra_backend"])
 if spheres:
     # BROF (Irazábal 2017 §5.2.1): η_r between spheres; against the floor its own, the frictionless hopper none (the
@@ -108,8 +106,8 @@ bed.set_walls(np.array(triangles, float), [0, 0] + [1] * (len(triangles) - 2), w
 bed.initialize()
 impact = math.sqrt(2.0 * GRAVITY * bin_top)  # the fastest landing: from the lattice's top to the floor
 critical = bed.critical_time_step(impact_velocity=impact)
-if time_step > 0.5 * critical:
-    raise SystemExit(f"polyhedra_dem.py: {step_name} = {time_step:g} s is above half the contacts' critical "
+if p["polyhedron_dt"] > 0.5 * critical:
+    raise SystemExit(f"polyhedra_dem.py: polyhedron_dt = {p['polyhedron_dt']:g} s is above half the contacts' critical "
                      f"step {critical:.3g} s at the {impact:.2f} m/s impact (E = {young:g} Pa): take at most "
                      f"{0.5 * critical:.3g} s")
 _, _, _, _, masses = bed.states()

@@ -84,7 +84,7 @@ if [ -n "${RESUME:-}" ]; then
   target=(--resume "$partial")
 fi
 case_dir=$root/cases/${CASE:-sleeper_on_ballast}
-# a case whose YADE side has a standalone twin chooses it by dem_driver; angle_of_repose by particle_shape = polyhedron
+# a case whose YADE side has a standalone twin chooses it by dem_driver (angle_of_repose: spheres; polyhedra always)
 driver=()
 if grep -q '^dem_driver *=' "$case_dir/case.toml"; then driver=(--set dem_driver=standalone); fi
 ${PYTHON:-python3} "$root/tools/run_case.py" "$case_dir" "${target[@]}" \

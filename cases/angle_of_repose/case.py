@@ -93,21 +93,20 @@ class AngleOfRepose(Case):
         problems = []
         if p["material"] == "wheat" and p["particle_shape"] != "sphere":
             problems.append("material = \"wheat\" is spheres only (particle_shape = \"sphere\")")
-        if p["particle_shape"] == "polyhedron" and p["base_radius"] > 0.0:
-            problems.append("particle_shape = \"polyhedron\" has no fixed base (the polyhedra library has no fixed "
-                            "bodies): base_radius must be 0")
+        if self.on_library(p) and p["base_radius"] > 0.0:
+            problems.append("the polyhedra library (particle_shape = \"polyhedron\", dem_driver = \"standalone\") has "
+                            "no fixed bodies: base_radius must be 0")
         if p["hopper_gate_s"] > 0.0:
             # rig.Hopper.gate's travel is 1.5 apertures
             cleared = p["hopper_gate_s"] + 1.5 * p["hopper_aperture"] / p["hopper_gate_speed"]
             if cleared >= p["duration_s"]:
                 problems.append(f"the gate opens at hopper_gate_s = {p['hopper_gate_s']:g} s and clears the aperture "
                                 f"at {cleared:g} s, not before duration_s = {p['duration_s']:g} s: nothing could pile")
-        if self.on_library(p) and p["particle_shape"] == "sphere":
-            if p["material"] != "ballast":
-                problems.append("dem_driver = \"standalone\" runs ballast spheres only (material = \"ballast\")")
-            if p["base_radius"] > 0.0:
-                problems.append("dem_driver = \"standalone\" has no fixed base (the polyhedra library has no fixed "
-                                "bodies): base_radius must be 0")
+        if p["particle_shape"] == "cluster" and p["dem_driver"] == "standalone":
+            problems.append("dem_driver = \"standalone\" (the polyhedra library) has no clusters: they run on YADE "
+                            "(dem_driver = \"yade\")")
+        if self.on_library(p) and p["material"] != "ballast":
+            problems.append("dem_driver = \"standalone\" runs ballast spheres only (material = \"ballast\")")
         if p["particle_shape"] == "polyhedron" and p["friction_model"] != "constant":
             problems.append("particle_shape = \"polyhedron\" has constant friction only "
                             "(friction_model = \"constant\")")

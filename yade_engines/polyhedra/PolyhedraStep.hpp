@@ -240,9 +240,11 @@ RAILCOSIM_HOST_DEVICE inline Vec3 principalInertia(const ShapeData& shape) {
 
 // The torque that stone i's spin takes in a half kick from `omega`: the contacts' torque of the last evaluation
 // plus, for a sphere with a rolling budget, the bounded rolling torque (kernels/BoundedRollingFriction.hpp). For a
-// sphere (isotropic inertia, no gyroscopic term) both halves of Zhao–van Wachem are plain kicks ω += (Δt/2) T/I:
-// the predictor's from ω^n with this evaluation's torque, the corrector's from ω^{n+1/2} (eq. 5.54a with
-// ω^{n+1/2} = ω^n + (Δt/2) T^n/I). Bounding each kick with h = Δt/2 stops a spin at zero and never reverses it.
+// sphere (isotropic inertia, no gyroscopic term) both halves of Zhao–van Wachem are kicks ω += (Δt/2) T/I: the
+// predictor's from ω^n with this evaluation's torque, the corrector's from ω^{n+1/2} (eq. 5.54a). Bounding each with
+// h = Δt/2 stops a spin at zero and never reverses it. The corrector takes the body-frame spin of q^n and the torque
+// in the frame of q^{n+1/2}; their difference leaves a stopped spin a residue of order |ω|Δt across the torque,
+// which the next predictor's bound removes.
 RAILCOSIM_HOST_DEVICE inline Vec3 halfKickTorque(const SystemView& s, int i, const ShapeData& shape,
                                                  const Vec3& omega) {
   const Vec3 torque = load3(s.torque, i);
@@ -712,9 +714,15 @@ RAILCOSIM_HOST_DEVICE inline PairOutcome pairContact(const SystemView& s, int i,
                    kernels::effectiveMass(shapeA.mass, shapeB.mass), s.stoneLaw, kinematicsA, kinematicsB, s.timeStep,
                    slot, s.pairNormalHistory ? s.pairNormalHistory + index : nullptr, &rollingMoment);
   s.pairSlots[index] = slot;
-  if (rollingMoment > 0.0) {
-    atomicAccumulate(s.rollingBudget + i, rollingMoment);
-    atomicAccumulate(s.rollingBudget + partner, rollingMoment);
+  const bool sphereA = shapeA.vertexCount == 1, sphereB = shapeB.vertexCount == 1;
+  if (rollingMoment > 0.0 && (sphereA || sphereB)) {
+    // Between two spheres the arm is η_r R* (eq. 5.2); a sphere on a polyhedron rolls on a locally flat face, as on a
+    // wall (YADE counts a non-sphere as flat): η_r R_sphere. Only spheres take the torque, so only they are summed.
+    const double arm = sphereA && sphereB ? 1.0
+                                          : (sphereA ? shapeA.dilationRadius : shapeB.dilationRadius) /
+                                                kernels::effectiveRadius(shapeA.dilationRadius, shapeB.dilationRadius);
+    if (sphereA) atomicAccumulate(s.rollingBudget + i, arm * rollingMoment);
+    if (sphereB) atomicAccumulate(s.rollingBudget + partner, arm * rollingMoment);
   }
   writeContactOutput(s, s.pairOutput[index], g.point, force, g.overlap);
   atomicAccumulate3(s.force, partner, force);
@@ -877,7 +885,7 @@ RAILCOSIM_HOST_DEVICE inline int stoneWallForces(const SystemView& s, int i) {
   if (active > 0) {
     atomicAccumulate3(s.force, i, forceA);
     atomicAccumulate3(s.torque, i, torqueA);
-    if (rollingA > 0.0) atomicAccumulate(s.rollingBudget + i, rollingA);
+    if (rollingA > 0.0 && shapeA.vertexCount == 1) atomicAccumulate(s.rollingBudget + i, rollingA);
   }
   return active;
 }

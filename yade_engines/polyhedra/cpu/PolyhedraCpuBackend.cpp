@@ -163,7 +163,11 @@ public:
     std::fill(d.triangleWeightSum.begin(), d.triangleWeightSum.end(), 0.0);
     const int n = d.stoneCount;
     if (!d.forcesValid) {
-      // Forces of the initial state; Δt = 0 so that the tangential springs do not move.
+      // Forces of the initial state; Δt = 0 so that the tangential springs do not move. They accumulate from zero:
+      // after setState the arrays still hold the forces of the state it replaced.
+      std::fill(d.force.begin(), d.force.end(), 0.0);
+      std::fill(d.torque.begin(), d.torque.end(), 0.0);
+      std::fill(d.rollingBudget.begin(), d.rollingBudget.end(), 0.0);
       rebuild(d);
       SystemView prime = d.view();
       prime.timeStep = 0.0;

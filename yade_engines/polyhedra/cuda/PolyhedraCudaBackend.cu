@@ -496,6 +496,10 @@ public:
     check(cudaMemsetAsync(counters_.get(), 0, counterCount * sizeof(unsigned long long), stream_), "counter reset");
     zeroTriangleSums();
     if (!d.forcesValid) {
+      // The initial forces accumulate from zero (after setState the buffers hold those of the replaced state).
+      check(cudaMemsetAsync(force_.get(), 0, force_.size() * sizeof(double), stream_), "force reset");
+      check(cudaMemsetAsync(torque_.get(), 0, torque_.size() * sizeof(double), stream_), "torque reset");
+      check(cudaMemsetAsync(rollingBudget_.get(), 0, rollingBudget_.size() * sizeof(double), stream_), "budget reset");
       enqueueRebuild(d);
       SystemView prime = view(d);
       prime.timeStep = 0.0; // initial forces without moving the tangential springs

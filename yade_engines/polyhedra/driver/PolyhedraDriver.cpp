@@ -445,9 +445,12 @@ int rcp_set_rolling_friction(rcp_bed* bed, double stones, const double* walls, i
   return guarded(
       "rcp_set_rolling_friction",
       [&] {
-        if (bed->system->stoneCount() > 0 || bed->initialized)
+        // The system is rebuilt below: nothing may have reached it yet (a failed rcp_add_stone may have added a shape).
+        if (bed->system->stoneCount() > 0 || bed->frames.templates() > 0 || bed->initialized)
           throw std::logic_error("rolling friction must be set before the first stone is added");
-        if (wallCount < 0 || (wallCount > 0 && !walls)) throw std::invalid_argument("wall_count must be >= 0");
+        if (wallCount < 0) throw std::invalid_argument("wall_count must be >= 0, got " + std::to_string(wallCount));
+        if (wallCount > 0 && !walls) throw std::invalid_argument("wall_count is " + std::to_string(wallCount) +
+                                                                 " but no wall values were given");
         std::vector<double> wall(walls, walls + wallCount);
         for (double eta : wall)
           if (!(eta >= 0.0) || std::isinf(eta))

@@ -488,9 +488,9 @@ std::vector<double> stackUnderPlate(double speed, int rebuildInterval, bool adap
 // Moving walls in the stale test: a plate coming down at 1 mm/s travels 15 µm in 3000 steps, far inside half the
 // 5 mm skin, so the adaptive run keeps its first lists (2 rebuilds: initial forces, the call's start) where a moving
 // surface used to rebuild every 10 steps, and its trajectory equals a run rebuilding every step (1e-12 m, as above).
-// At 2 m/s the plate reaches the upper cube after 14.9 ms and presses on it: the lists must be renewed before the plate's
-// travel plus twice its way over the next interval and a step (2 × 2 m/s × 11 × 5 µs = 0.22 mm) reaches 2.5 mm, i.e.
-// every 23 intervals: 300 / 23 ≈ 13 rebuilds plus the two, and the trajectory equals the every-step run's.
+// At 2 m/s the plate reaches the upper cube after 14.9 ms and presses on it: the lists must be renewed before the
+// plate's travel plus twice its way over the next interval and a step (2 × 2 m/s × 11 × 5 µs = 0.22 mm) reaches 2.5 mm,
+// i.e. every 23 intervals: 300 / 23 ≈ 13 rebuilds plus the two, and the trajectory equals the every-step run's.
 BOOST_AUTO_TEST_CASE(moving_plate_counts_in_the_rebuild_test) {
   std::int64_t rebuilds = 0, reference = 0, dangerous = 0, ignored = 0;
   int plateContacts = 0, referenceContacts = 0;
@@ -1062,8 +1062,8 @@ BOOST_AUTO_TEST_CASE(point_core_sphere_rests_at_hertz_overlap) {
 BOOST_AUTO_TEST_CASE(bounded_rolling_friction_stops_a_sphere_as_the_closed_forms) {
   using namespace railcosim::testing;
   const RollingRun flat = runRollingScenario(Backend::Cpu, 0.2, 0.0, false);
-  BOOST_TEST_MESSAGE("flat: stops at t = " << flat.stopTime << " s, x = " << flat.stopX << " m; final x "
-                                           << flat.finalX << " m, |ω| " << flat.finalSpin << " rad/s");
+  BOOST_TEST_MESSAGE("flat: stops at t = " << flat.stopTime << " s, x = " << flat.stopX << " m; final x " << flat.finalX
+                                           << " m, |ω| " << flat.finalSpin << " rad/s");
   BOOST_TEST(std::fabs(flat.stopTime / rollOutStopTime - 1.0) < rollingTolerance);
   BOOST_TEST(std::fabs(flat.stopX / rollOutStopX - 1.0) < rollingTolerance);
   // No roll back: only the tangential spring's elastic stretch relaxes, F_t / k_t = (5/7) η_r m g / (8 G* a) ≈ 7e-6 m.

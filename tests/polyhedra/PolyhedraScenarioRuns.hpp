@@ -103,11 +103,11 @@ inline double runImpactScenario(polyhedra::Backend backend) {
 // 10° slope from pure rolling at 1 m/s, a sphere with η_r > tan 10° stops at v0² / (2 (5/7) g (sin β + η_r cos β))
 // and stays, one with η_r < tan 10° rolls back.
 struct RollingRun {
-  double stopTime = -1.0;  // first step at which the velocity along the path is <= 0 [s]
-  double stopX = 0.0;      // travel then [m]
-  double top = 0.0;        // largest travel [m]
-  double finalX = 0.0;     // travel at the end [m]
-  double finalSpin = 0.0;  // |ω| at the end [rad/s]
+  double stopTime = -1.0; // first step at which the velocity along the path is <= 0 [s]
+  double stopX = 0.0;     // travel then [m]
+  double top = 0.0;       // largest travel [m]
+  double finalX = 0.0;    // travel at the end [m]
+  double finalSpin = 0.0; // |ω| at the end [rad/s]
 };
 constexpr double rollingRadius = 0.05, rollingGravity = 9.81, rollingPi = 3.14159265358979323846;
 // The flat roll-out's closed form (η_r 0.2, μ 0.8, v0 = 1 m/s without spin): the stop [s] and the travel then [m].
@@ -143,8 +143,8 @@ inline RollingRun runRollingScenario(polyhedra::Backend backend, double rollingF
   const double mass = 1056.0 * 4.0 / 3.0 * rollingPi * std::pow(rollingRadius, 3);
   const double eStar = 4e7 / (1.0 - 0.49 * 0.49);
   // Start at the static Hertz overlap under the normal weight.
-  const double overlap = std::pow(3.0 * mass * rollingGravity * std::cos(beta) / (4.0 * eStar * std::sqrt(rollingRadius)),
-                                  2.0 / 3.0);
+  const double overlap =
+      std::pow(3.0 * mass * rollingGravity * std::cos(beta) / (4.0 * eStar * std::sqrt(rollingRadius)), 2.0 / 3.0);
   const double x0 = -0.8, y0 = 0.5; // the diagonal x = y is 1.3 m away
   system.addStone(shape, {x0, y0, rollingRadius - overlap}, {1, 0, 0, 0}, {1.0, 0.0, 0.0},
                   {0.0, rollingStart ? 1.0 / rollingRadius : 0.0, 0.0});

@@ -122,9 +122,9 @@ struct SystemView {
   const double* nodeVelocity;
   const std::int32_t* triangles;
   const std::int32_t* triangleMaterial; // wall law index per triangle; null: wallLaws[0] for every triangle
-  double* triangleForceSum;  // Σ over contacts and steps of the force on the triangle
-  double* trianglePointSum;  // Σ |F| x_c
-  double* triangleWeightSum; // Σ |F|
+  double* triangleForceSum;             // Σ over contacts and steps of the force on the triangle
+  double* trianglePointSum;             // Σ |F| x_c
+  double* triangleWeightSum;            // Σ |F|
   // contact candidates
   int maxPairs;
   int maxWalls;
@@ -265,8 +265,8 @@ RAILCOSIM_HOST_DEVICE inline void predictStone(const SystemView& s, int i, kerne
   kernels::velocityVerletDrift(position, velocity, dt);
   store3(s.velocity, i, velocity);
   store3(s.position, i, position);
-  kernels::zhaoVanWachemPredict(rotation, principalInertia(shape), halfKickTorque(s, i, shape, rotation.angularVelocity),
-                                dt);
+  kernels::zhaoVanWachemPredict(rotation, principalInertia(shape),
+                                halfKickTorque(s, i, shape, rotation.angularVelocity), dt);
   // Forces of the next evaluation accumulate from zero.
   store3(s.force, i, Vec3{0.0, 0.0, 0.0});
   store3(s.torque, i, Vec3{0.0, 0.0, 0.0});
@@ -280,8 +280,8 @@ RAILCOSIM_HOST_DEVICE inline void correctStone(const SystemView& s, int i, kerne
   Vec3 velocity = load3(s.velocity, i);
   kernels::velocityVerletHalfKick(velocity, load3(s.force, i) + shape.mass * s.gravity, shape.mass, s.timeStep);
   store3(s.velocity, i, velocity);
-  kernels::zhaoVanWachemCorrect(rotation, principalInertia(shape), halfKickTorque(s, i, shape, rotation.angularVelocity),
-                                s.timeStep);
+  kernels::zhaoVanWachemCorrect(rotation, principalInertia(shape),
+                                halfKickTorque(s, i, shape, rotation.angularVelocity), s.timeStep);
 }
 
 RAILCOSIM_HOST_DEVICE inline void predictStone(const SystemView& s, int i) { predictStone(s, i, s.rotation[i]); }
@@ -306,8 +306,8 @@ inline bool listsStale(double maxDisplacement, double maxSpeed, double horizon, 
 // triangle's displacements, so the nodes' way since the last rebuild and their speed count as a stone's would.
 inline bool listsStaleWithWalls(double maxDisplacement, double maxSpeed, double nodeMoved, double nodeSpeed,
                                 double horizon, double skin) {
-  return listsStale(maxDisplacement > nodeMoved ? maxDisplacement : nodeMoved, maxSpeed > nodeSpeed ? maxSpeed : nodeSpeed,
-                    horizon, skin);
+  return listsStale(maxDisplacement > nodeMoved ? maxDisplacement : nodeMoved,
+                    maxSpeed > nodeSpeed ? maxSpeed : nodeSpeed, horizon, skin);
 }
 
 // Surface nodes move with their prescribed velocity during a coupling window.
@@ -718,11 +718,12 @@ RAILCOSIM_HOST_DEVICE inline PairOutcome pairContact(const SystemView& s, int i,
   if (rollingMoment > 0.0 && (sphereA || sphereB)) {
     // Between two spheres the arm is η_r R* (eq. 5.2); a sphere on a polyhedron rolls on a locally flat face, as on a
     // wall (YADE counts a non-sphere as flat): η_r R_sphere. Only spheres take the torque, so only they are summed.
-    const double arm = sphereA && sphereB ? 1.0
-                                          : (sphereA ? shapeA.dilationRadius : shapeB.dilationRadius) /
-                                                kernels::effectiveRadius(shapeA.dilationRadius, shapeB.dilationRadius);
-    if (sphereA) atomicAccumulate(s.rollingBudget + i, arm * rollingMoment);
-    if (sphereB) atomicAccumulate(s.rollingBudget + partner, arm * rollingMoment);
+    const double armScale = sphereA && sphereB
+                                ? 1.0
+                                : (sphereA ? shapeA.dilationRadius : shapeB.dilationRadius) /
+                                      kernels::effectiveRadius(shapeA.dilationRadius, shapeB.dilationRadius);
+    if (sphereA) atomicAccumulate(s.rollingBudget + i, armScale * rollingMoment);
+    if (sphereB) atomicAccumulate(s.rollingBudget + partner, armScale * rollingMoment);
   }
   writeContactOutput(s, s.pairOutput[index], g.point, force, g.overlap);
   atomicAccumulate3(s.force, partner, force);
@@ -856,9 +857,9 @@ RAILCOSIM_HOST_DEVICE inline int stoneWallForces(const SystemView& s, int i) {
     // A duplicate keeps its tangential spring up to date too (it takes over when its twin separates).
     const kernels::ContactLaw& wallLaw = s.wallLaws[s.triangleMaterial ? s.triangleMaterial[partner] : 0];
     double rollingMoment = 0.0;
-    const Vec3 force = contactForce(g, shapeA.dilationRadius, shapeA.mass, wallLaw, kinematicsA, kinematicsB,
-                                    s.timeStep, slot, s.wallNormalHistory ? s.wallNormalHistory + index : nullptr,
-                                    &rollingMoment);
+    const Vec3 force =
+        contactForce(g, shapeA.dilationRadius, shapeA.mass, wallLaw, kinematicsA, kinematicsB, s.timeStep, slot,
+                     s.wallNormalHistory ? s.wallNormalHistory + index : nullptr, &rollingMoment);
     bool duplicate = false;
     for (int m = 0; m < acceptedCount; ++m) {
       duplicate = duplicate || (kernels::dot(acceptedNormal[m], g.normal) > 1.0 - 1e-9 &&

@@ -1083,6 +1083,18 @@ BOOST_AUTO_TEST_CASE(bounded_rolling_friction_stops_a_sphere_as_the_closed_forms
   BOOST_TEST(free.stopTime < 0.0);
 }
 
+// The same roll-out on a sphere (the pair path: arm η_r R*, the budget summed for both spheres) as on the flat, where
+// the other sphere is so large that its top is flat (PolyhedraScenarioRuns.hpp), within the same band.
+BOOST_AUTO_TEST_CASE(bounded_rolling_friction_between_spheres_as_the_closed_form) {
+  using namespace railcosim::testing;
+  const RollingRun onSphere = runRollingOnSphereScenario(Backend::Cpu);
+  BOOST_TEST_MESSAGE("on a 10 km sphere: stops at t = " << onSphere.stopTime << " s, x = " << onSphere.stopX
+                                                        << " m; |ω| " << onSphere.finalSpin << " rad/s");
+  BOOST_TEST(std::fabs(onSphere.stopTime / rollOutStopTime - 1.0) < rollingTolerance);
+  BOOST_TEST(std::fabs(onSphere.stopX / rollOutStopX - 1.0) < rollingTolerance);
+  BOOST_TEST(onSphere.finalSpin < 1e-9);
+}
+
 // The rolling torque acts on spheres only: a cube with the same η_r slides and tumbles as one without it.
 BOOST_AUTO_TEST_CASE(rolling_friction_leaves_polyhedra_alone) {
   auto run = [](double eta) {

@@ -164,6 +164,59 @@ inline RollingRun runRollingScenario(polyhedra::Backend backend, double rollingF
   return run;
 }
 
+// The flat roll-out on top of a sphere of 10 km resting on the floor: the pair's arm is η_r R* with
+// R* = R r / (R + r) = r (1 − 5e-6), and along the 0.19 m of travel gravity tilts by 2e-5 rad against the surface, so
+// the flat's closed form holds to 1e-5. The big sphere (4.2 kg) is held by its own rolling friction on the floor (η_r R
+// F_n ≈ 9e4 N m against A's friction torque of about 800 N m) and the floor's Coulomb friction.
+inline RollingRun runRollingOnSphereScenario(polyhedra::Backend backend) {
+  using namespace polyhedra;
+  polyhedra::Parameters p;
+  p.timeStep = 5e-5;
+  p.gravity = {0.0, 0.0, -rollingGravity};
+  p.stone = Material{4e7, 0.49, 0.2, 0.8};
+  p.stone.rollingFriction = 0.2;
+  p.wall = Material{4e7 * 1e6, 0.49, 0.2, 0.8};
+  p.backend = backend;
+  PolyhedraSystem system(p);
+  const double bigRadius = 1e4;
+  polyhedra::ShapeTemplate small, big;
+  small.vertices = big.vertices = {0.0, 0.0, 0.0};
+  small.dilationRadius = rollingRadius;
+  small.density = 1056.0;
+  big.dilationRadius = bigRadius;
+  big.density = 1e-12;
+  const int smallShape = system.addShape(small), bigShape = system.addShape(big);
+  system.setWalls({-1, -1, 0, 1, -1, 0, 1, 1, 0, -1, 1, 0}, {0, 1, 2, 0, 2, 3});
+  const double smallMass = 1056.0 * 4.0 / 3.0 * rollingPi * std::pow(rollingRadius, 3);
+  const double bigMass = 1e-12 * 4.0 / 3.0 * rollingPi * std::pow(bigRadius, 3);
+  auto hertzOverlap = [](double force, double effectiveModulus, double radius) {
+    return std::pow(3.0 * force / (4.0 * effectiveModulus * std::sqrt(radius)), 2.0 / 3.0);
+  };
+  const double eStar = 4e7 / (1.0 - 0.49 * 0.49);
+  // Both start at their static overlaps: the big sphere on the rigid floor (E*), the small one on it (E*/2).
+  const double floorOverlap = hertzOverlap((bigMass + smallMass) * rollingGravity, eStar, bigRadius);
+  const double pairOverlap =
+      hertzOverlap(smallMass * rollingGravity, 0.5 * eStar, rollingRadius * bigRadius / (rollingRadius + bigRadius));
+  const double x0 = -0.8, y0 = 0.5;
+  const double bigZ = bigRadius - floorOverlap;
+  system.addStone(bigShape, {x0 + 0.1, y0, bigZ}, {1, 0, 0, 0});
+  system.addStone(smallShape, {x0, y0, bigZ + bigRadius + rollingRadius - pairOverlap}, {1, 0, 0, 0}, {1.0, 0.0, 0.0});
+  RollingRun run;
+  for (int step = 0; step < 24000; ++step) { // 1.2 s
+    system.step(1);
+    const double x = system.positions()[3] - x0;
+    run.top = std::max(run.top, x);
+    if (run.stopTime < 0.0 && system.velocities()[3] <= 0.0) {
+      run.stopTime = (step + 1) * p.timeStep;
+      run.stopX = x;
+    }
+  }
+  run.finalX = system.positions()[3] - x0;
+  const std::vector<double> w = system.angularVelocities();
+  run.finalSpin = std::sqrt(w[3] * w[3] + w[4] * w[4] + w[5] * w[5]);
+  return run;
+}
+
 // The top of the climb up the slope for a sphere that stays there [m].
 inline double rollingSlopeTop(double rollingFriction, double slopeDegrees) {
   const double beta = radians(slopeDegrees);

@@ -122,6 +122,25 @@ inline bool rollingStays(double rollingFriction, double slopeDegrees) {
   return rollingFriction > std::tan(radians(slopeDegrees));
 }
 
+// Runs `system` (step `timeStep`) for 1.2 s, one step at a time, recording the roll of stone `stone` along x from x0.
+inline RollingRun recordRolling(polyhedra::PolyhedraSystem& system, int stone, double x0, double timeStep) {
+  RollingRun run;
+  for (int step = 0; step < 24000; ++step) {
+    system.step(1);
+    const double x = system.positions()[3 * stone] - x0;
+    run.top = std::max(run.top, x);
+    if (run.stopTime < 0.0 && system.velocities()[3 * stone] <= 0.0) {
+      run.stopTime = (step + 1) * timeStep;
+      run.stopX = x;
+    }
+  }
+  run.finalX = system.positions()[3 * stone] - x0;
+  const std::vector<double> w = system.angularVelocities();
+  run.finalSpin = std::sqrt(w[3 * stone] * w[3 * stone] + w[3 * stone + 1] * w[3 * stone + 1] +
+                            w[3 * stone + 2] * w[3 * stone + 2]);
+  return run;
+}
+
 inline RollingRun runRollingScenario(polyhedra::Backend backend, double rollingFriction, double slopeDegrees,
                                      bool rollingStart) {
   using namespace polyhedra;
@@ -148,20 +167,7 @@ inline RollingRun runRollingScenario(polyhedra::Backend backend, double rollingF
   const double x0 = -0.8, y0 = 0.5; // the diagonal x = y is 1.3 m away
   system.addStone(shape, {x0, y0, rollingRadius - overlap}, {1, 0, 0, 0}, {1.0, 0.0, 0.0},
                   {0.0, rollingStart ? 1.0 / rollingRadius : 0.0, 0.0});
-  RollingRun run;
-  for (int step = 0; step < 24000; ++step) { // 1.2 s
-    system.step(1);
-    const double x = system.positions()[0] - x0;
-    run.top = std::max(run.top, x);
-    if (run.stopTime < 0.0 && system.velocities()[0] <= 0.0) {
-      run.stopTime = (step + 1) * p.timeStep;
-      run.stopX = x;
-    }
-  }
-  run.finalX = system.positions()[0] - x0;
-  const std::vector<double> w = system.angularVelocities();
-  run.finalSpin = std::sqrt(w[0] * w[0] + w[1] * w[1] + w[2] * w[2]);
-  return run;
+  return recordRolling(system, 0, x0, p.timeStep);
 }
 
 // The flat roll-out on top of a sphere of 10 km resting on the floor: the pair's arm is η_r R* with
@@ -201,20 +207,7 @@ inline RollingRun runRollingOnSphereScenario(polyhedra::Backend backend) {
   const double bigZ = bigRadius - floorOverlap;
   system.addStone(bigShape, {x0 + 0.1, y0, bigZ}, {1, 0, 0, 0});
   system.addStone(smallShape, {x0, y0, bigZ + bigRadius + rollingRadius - pairOverlap}, {1, 0, 0, 0}, {1.0, 0.0, 0.0});
-  RollingRun run;
-  for (int step = 0; step < 24000; ++step) { // 1.2 s
-    system.step(1);
-    const double x = system.positions()[3] - x0;
-    run.top = std::max(run.top, x);
-    if (run.stopTime < 0.0 && system.velocities()[3] <= 0.0) {
-      run.stopTime = (step + 1) * p.timeStep;
-      run.stopX = x;
-    }
-  }
-  run.finalX = system.positions()[3] - x0;
-  const std::vector<double> w = system.angularVelocities();
-  run.finalSpin = std::sqrt(w[3] * w[3] + w[4] * w[4] + w[5] * w[5]);
-  return run;
+  return recordRolling(system, 1, x0, p.timeStep);
 }
 
 // The top of the climb up the slope for a sphere that stays there [m].

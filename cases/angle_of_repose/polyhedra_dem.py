@@ -53,7 +53,7 @@ if spheres:
     dilations = 0.5 * sizes
     cores = [np.zeros((1, 3)) for _ in sizes]
     orientations = [(1.0, 0.0, 0.0, 0.0)] * len(sizes)
-    inertia = np.outer(0.4 * density * math.pi / 6.0 * sizes ** 3 * dilations ** 2, np.ones(3))
+    inertia = None  # 2/5 m r^2 from the library's masses, once the stones are in (below)
 else:
     library = ballast_clusters.loadShapeLibrary()
     shapes = {s["name"]: s for s in library["shapes"]}
@@ -112,6 +112,8 @@ if p["polyhedron_dt"] > 0.5 * critical:
                      f"{0.5 * critical:.3g} s")
 _, _, _, _, masses = bed.states()
 total_mass = float(masses.sum())
+if spheres:
+    inertia = np.outer(0.4 * masses * dilations ** 2, np.ones(3))
 backend, reason = bed.backend
 kind = f"spheres (η_r {p['rolling_friction']:g})" if spheres else f"polyhedra (r_d {r:g} x size)"
 print(f"{len(sizes)} {kind}, {total_mass:.2f} kg, lattice up to {bin_top:.3f} m; "

@@ -19,6 +19,7 @@
 #include <string>
 #include <vector>
 
+#include "kernels/BoundedRollingFriction.hpp"
 #include "polyhedra/PolyhedraBodyFrames.hpp"
 #include "polyhedra/PolyhedraSystem.hpp"
 #include "polyhedra/PolyhedraWindow.hpp"
@@ -452,9 +453,8 @@ int rcp_set_rolling_friction(rcp_bed* bed, double stones, const double* walls, i
         if (wallCount > 0 && !walls) throw std::invalid_argument("wall_count is " + std::to_string(wallCount) +
                                                                  " but no wall values were given");
         std::vector<double> wall(walls, walls + wallCount);
-        for (double eta : wall)
-          if (!(eta >= 0.0) || std::isinf(eta))
-            throw std::invalid_argument("a wall's rolling friction must be finite and >= 0, got " + std::to_string(eta));
+        for (double eta : wall) // the contact law's own check (it would refuse them at the walls' set-up otherwise)
+          railcosim::kernels::validate(railcosim::kernels::BoundedRollingFrictionParams{eta}, "a wall's rolling friction");
         // The stone material is the system's construction parameter: a new, still empty system takes it (and
         // validates it).
         poly::Parameters p = bed->parameters;

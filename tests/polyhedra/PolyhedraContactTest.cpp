@@ -1095,6 +1095,18 @@ BOOST_AUTO_TEST_CASE(bounded_rolling_friction_between_spheres_as_the_closed_form
   BOOST_TEST(onSphere.finalSpin < 1e-9);
 }
 
+// The same roll-out on the top face of a large cube (the sphere–polyhedron path: the arm η_r R of the sphere, its
+// budget alone), within the same band (PolyhedraScenarioRuns.hpp).
+BOOST_AUTO_TEST_CASE(bounded_rolling_friction_on_a_polyhedron_as_the_closed_form) {
+  using namespace railcosim::testing;
+  const RollingRun onCube = runRollingOnPolyhedronScenario(Backend::Cpu);
+  BOOST_TEST_MESSAGE("on a 200 m cube: stops at t = " << onCube.stopTime << " s, x = " << onCube.stopX << " m; |ω| "
+                                                       << onCube.finalSpin << " rad/s");
+  BOOST_TEST(std::fabs(onCube.stopTime / rollOutStopTime - 1.0) < rollingTolerance);
+  BOOST_TEST(std::fabs(onCube.stopX / rollOutStopX - 1.0) < rollingTolerance);
+  BOOST_TEST(onCube.finalSpin < 1e-9);
+}
+
 // The rolling torque acts on spheres only: a cube with the same η_r slides and tumbles as one without it.
 BOOST_AUTO_TEST_CASE(rolling_friction_leaves_polyhedra_alone) {
   auto run = [](double eta) {

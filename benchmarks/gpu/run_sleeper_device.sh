@@ -62,10 +62,29 @@ export RAILCOSIM_POLYHEDRA_DRIVER="$rt/librailcosim_polyhedra_driver.so" RAILCOS
   nvidia-smi --query-gpu=name,driver_version,memory.total --format=csv,noheader || true
   echo "cores: $(nproc); python: $(${PYTHON:-python3} --version)"
 } | tee "$out/device.txt"
+# The runner and the campaign stop their solvers on SIGTERM, SIGINT or SIGHUP and write their summaries, but a
+# foreground child of bash misses a signal sent to this script alone (e.g. by `timeout`): run it in the background,
+# pass such a signal on to it, and wait for it to finish.
+forwarding() {
+  "$@" &
+  local child=$!
+  trap 'kill -TERM "$child" 2>/dev/null' TERM HUP
+  trap 'kill -INT "$child" 2>/dev/null' INT
+  local status
+  wait "$child"
+  status=$?
+  while kill -0 "$child" 2>/dev/null; do # a signal ended `wait` early: the child is still stopping
+    wait "$child"
+    status=$?
+  done
+  trap - TERM HUP INT
+  return "$status"
+}
 start=$(date +%s)
 set +e
 if [ -n "${CAMPAIGN:-}" ]; then
-  RAILCOSIM_CAMPAIGN_DIRECT=1 ${PYTHON:-python3} "$root/tools/campaign.py" "$CAMPAIGN" --jobs "${JOBS:-4}" --out "$out/campaign" "$@"
+  RAILCOSIM_CAMPAIGN_DIRECT=1 forwarding ${PYTHON:-python3} "$root/tools/campaign.py" "$CAMPAIGN" --jobs "${JOBS:-4}" \
+    --out "$out/campaign" "$@"
   code=$?
   echo "campaign exit $code after $(( $(date +%s) - start )) s" | tee -a "$out/device.txt"
   pack_beds
@@ -87,7 +106,7 @@ case_dir=$root/cases/${CASE:-sleeper_on_ballast}
 # a case whose YADE side has a standalone twin chooses it by dem_driver (angle_of_repose: spheres; polyhedra always)
 driver=()
 if grep -q '^dem_driver *=' "$case_dir/case.toml"; then driver=(--set dem_driver=standalone); fi
-${PYTHON:-python3} "$root/tools/run_case.py" "$case_dir" "${target[@]}" \
+forwarding ${PYTHON:-python3} "$root/tools/run_case.py" "$case_dir" "${target[@]}" \
   ${driver[@]+"${driver[@]}"} --set polyhedra_backend=cuda --set "dem_threads=${THREADS:-$(nproc)}" "$@"
 code=$?
 set -e

@@ -239,7 +239,8 @@ inline RollingRun runRollingOnPolyhedronScenario(polyhedra::Backend backend) {
                                    (k & 4 ? 1.0 : -1.0) * halfEdge});
   // the density that gives the dilated cube cubeMass (Steiner: a³ + 6a² r + 3πa r² + 4/3 π r³, edge a)
   const double a = 2.0 * halfEdge, r = cubeDilation;
-  const double cubeVolume = a * a * a + 6.0 * a * a * r + 3.0 * rollingPi * a * r * r + 4.0 / 3.0 * rollingPi * r * r * r;
+  const double cubeVolume =
+      a * a * a + 6.0 * a * a * r + 3.0 * rollingPi * a * r * r + 4.0 / 3.0 * rollingPi * r * r * r;
   const int smallShape = system.addShape(small);
   const int cubeShape = system.addShape(convexHullTemplate(corners, cubeDilation, cubeMass / cubeVolume));
   const double floorHalf = 2.0 * halfEdge;

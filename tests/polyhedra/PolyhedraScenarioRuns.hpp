@@ -3,6 +3,7 @@
 #pragma once
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <vector>
 
@@ -143,29 +144,48 @@ inline RollingRun recordRolling(polyhedra::PolyhedraSystem& system, int stone, d
   return run;
 }
 
-inline RollingRun runRollingScenario(polyhedra::Backend backend, double rollingFriction, double slopeDegrees,
-                                     bool rollingStart) {
-  using namespace polyhedra;
+// The benchmarks' material (Irazábal 2017 Table 5.2: E 4e7 Pa, ν 0.49, e 0.2, μ 0.8, ρ 1056 kg/m³), 5e-5 s, the
+// walls a million times stiffer (rigid: E* of a sphere–wall pair is the sphere's E/(1 − ν²)).
+constexpr double rollingDensity = 1056.0, rollingEStar = 4e7 / (1.0 - 0.49 * 0.49);
+constexpr double rollingMass = rollingDensity * 4.0 / 3.0 * rollingPi * rollingRadius * rollingRadius * rollingRadius;
+
+inline polyhedra::Parameters rollingParameters(polyhedra::Backend backend, double rollingFriction,
+                                               const std::array<double, 3>& gravity) {
   polyhedra::Parameters p;
   p.timeStep = 5e-5;
-  const double beta = radians(slopeDegrees);
-  p.gravity = {-rollingGravity * std::sin(beta), 0.0, -rollingGravity * std::cos(beta)};
-  p.stone = Material{4e7, 0.49, 0.2, 0.8};
+  p.gravity = gravity;
+  p.stone = polyhedra::Material{4e7, 0.49, 0.2, 0.8};
   p.stone.rollingFriction = rollingFriction;
-  p.wall = Material{4e7 * 1e6, 0.49, 0.2, 0.8}; // rigid: E* of the pair is the sphere's E/(1 − ν²)
+  p.wall = polyhedra::Material{4e7 * 1e6, 0.49, 0.2, 0.8};
   p.backend = backend;
-  PolyhedraSystem system(p);
+  return p;
+}
+
+// The rolling sphere: a one-point core dilated by its radius.
+inline polyhedra::ShapeTemplate rollingSphere() {
   polyhedra::ShapeTemplate sphere;
   sphere.vertices = {0.0, 0.0, 0.0};
   sphere.dilationRadius = rollingRadius;
-  sphere.density = 1056.0;
-  const int shape = system.addShape(sphere);
+  sphere.density = rollingDensity;
+  return sphere;
+}
+
+// Static Hertz overlap under `force` for the effective modulus and radius of a pair [m].
+inline double hertzOverlap(double force, double effectiveModulus, double radius) {
+  return std::pow(3.0 * force / (4.0 * effectiveModulus * std::sqrt(radius)), 2.0 / 3.0);
+}
+
+inline RollingRun runRollingScenario(polyhedra::Backend backend, double rollingFriction, double slopeDegrees,
+                                     bool rollingStart) {
+  using namespace polyhedra;
+  const double beta = radians(slopeDegrees);
+  const Parameters p = rollingParameters(backend, rollingFriction,
+                                         {-rollingGravity * std::sin(beta), 0.0, -rollingGravity * std::cos(beta)});
+  PolyhedraSystem system(p);
+  const int shape = system.addShape(rollingSphere());
   system.setWalls({-1, -1, 0, 1, -1, 0, 1, 1, 0, -1, 1, 0}, {0, 1, 2, 0, 2, 3});
-  const double mass = 1056.0 * 4.0 / 3.0 * rollingPi * std::pow(rollingRadius, 3);
-  const double eStar = 4e7 / (1.0 - 0.49 * 0.49);
   // Start at the static Hertz overlap under the normal weight.
-  const double overlap =
-      std::pow(3.0 * mass * rollingGravity * std::cos(beta) / (4.0 * eStar * std::sqrt(rollingRadius)), 2.0 / 3.0);
+  const double overlap = hertzOverlap(rollingMass * rollingGravity * std::cos(beta), rollingEStar, rollingRadius);
   const double x0 = -0.8, y0 = 0.5; // the diagonal x = y is 1.3 m away
   system.addStone(shape, {x0, y0, rollingRadius - overlap}, {1, 0, 0, 0}, {1.0, 0.0, 0.0},
                   {0.0, rollingStart ? 1.0 / rollingRadius : 0.0, 0.0});
@@ -178,33 +198,20 @@ inline RollingRun runRollingScenario(polyhedra::Backend backend, double rollingF
 // F_n ≈ 9e4 N m against A's friction torque of about 800 N m) and the floor's Coulomb friction.
 inline RollingRun runRollingOnSphereScenario(polyhedra::Backend backend) {
   using namespace polyhedra;
-  polyhedra::Parameters p;
-  p.timeStep = 5e-5;
-  p.gravity = {0.0, 0.0, -rollingGravity};
-  p.stone = Material{4e7, 0.49, 0.2, 0.8};
-  p.stone.rollingFriction = 0.2;
-  p.wall = Material{4e7 * 1e6, 0.49, 0.2, 0.8};
-  p.backend = backend;
+  const Parameters p = rollingParameters(backend, 0.2, {0.0, 0.0, -rollingGravity});
   PolyhedraSystem system(p);
   const double bigRadius = 1e4;
-  polyhedra::ShapeTemplate small, big;
-  small.vertices = big.vertices = {0.0, 0.0, 0.0};
-  small.dilationRadius = rollingRadius;
-  small.density = 1056.0;
+  polyhedra::ShapeTemplate big;
+  big.vertices = {0.0, 0.0, 0.0};
   big.dilationRadius = bigRadius;
   big.density = 1e-12;
-  const int smallShape = system.addShape(small), bigShape = system.addShape(big);
+  const int smallShape = system.addShape(rollingSphere()), bigShape = system.addShape(big);
   system.setWalls({-1, -1, 0, 1, -1, 0, 1, 1, 0, -1, 1, 0}, {0, 1, 2, 0, 2, 3});
-  const double smallMass = 1056.0 * 4.0 / 3.0 * rollingPi * std::pow(rollingRadius, 3);
   const double bigMass = 1e-12 * 4.0 / 3.0 * rollingPi * std::pow(bigRadius, 3);
-  auto hertzOverlap = [](double force, double effectiveModulus, double radius) {
-    return std::pow(3.0 * force / (4.0 * effectiveModulus * std::sqrt(radius)), 2.0 / 3.0);
-  };
-  const double eStar = 4e7 / (1.0 - 0.49 * 0.49);
   // Both start at their static overlaps: the big sphere on the rigid floor (E*), the small one on it (E*/2).
-  const double floorOverlap = hertzOverlap((bigMass + smallMass) * rollingGravity, eStar, bigRadius);
-  const double pairOverlap =
-      hertzOverlap(smallMass * rollingGravity, 0.5 * eStar, rollingRadius * bigRadius / (rollingRadius + bigRadius));
+  const double floorOverlap = hertzOverlap((bigMass + rollingMass) * rollingGravity, rollingEStar, bigRadius);
+  const double pairOverlap = hertzOverlap(rollingMass * rollingGravity, 0.5 * rollingEStar,
+                                          rollingRadius * bigRadius / (rollingRadius + bigRadius));
   const double x0 = -0.8, y0 = 0.5;
   const double bigZ = bigRadius - floorOverlap;
   system.addStone(bigShape, {x0 + 0.1, y0, bigZ}, {1, 0, 0, 0});
@@ -220,19 +227,9 @@ inline RollingRun runRollingOnSphereScenario(polyhedra::Backend backend) {
 // overlaps by 1e-4 m = 2e-3 R (on the rigid wall 1e-3 R): the arm R − δ shortens the travel by about that.
 inline RollingRun runRollingOnPolyhedronScenario(polyhedra::Backend backend) {
   using namespace polyhedra;
-  polyhedra::Parameters p;
-  p.timeStep = 5e-5;
-  p.gravity = {0.0, 0.0, -rollingGravity};
-  p.stone = Material{4e7, 0.49, 0.2, 0.8};
-  p.stone.rollingFriction = 0.2;
-  p.wall = Material{4e7 * 1e6, 0.49, 0.2, 0.8};
-  p.backend = backend;
+  const Parameters p = rollingParameters(backend, 0.2, {0.0, 0.0, -rollingGravity});
   PolyhedraSystem system(p);
   const double halfEdge = 100.0, cubeDilation = 0.05, cubeMass = 4.0;
-  polyhedra::ShapeTemplate small;
-  small.vertices = {0.0, 0.0, 0.0};
-  small.dilationRadius = rollingRadius;
-  small.density = 1056.0;
   std::vector<double> corners;
   for (int k = 0; k < 8; ++k)
     corners.insert(corners.end(), {(k & 1 ? 1.0 : -1.0) * halfEdge, (k & 2 ? 1.0 : -1.0) * halfEdge,
@@ -241,21 +238,16 @@ inline RollingRun runRollingOnPolyhedronScenario(polyhedra::Backend backend) {
   const double a = 2.0 * halfEdge, r = cubeDilation;
   const double cubeVolume =
       a * a * a + 6.0 * a * a * r + 3.0 * rollingPi * a * r * r + 4.0 / 3.0 * rollingPi * r * r * r;
-  const int smallShape = system.addShape(small);
+  const int smallShape = system.addShape(rollingSphere());
   const int cubeShape = system.addShape(convexHullTemplate(corners, cubeDilation, cubeMass / cubeVolume));
   const double floorHalf = 2.0 * halfEdge;
   system.setWalls({-floorHalf, -floorHalf, 0, floorHalf, -floorHalf, 0, floorHalf, floorHalf, 0, -floorHalf,
                    floorHalf, 0},
                   {0, 1, 2, 0, 2, 3});
-  const double smallMass = 1056.0 * 4.0 / 3.0 * rollingPi * std::pow(rollingRadius, 3);
-  auto hertzOverlap = [](double force, double effectiveModulus, double radius) {
-    return std::pow(3.0 * force / (4.0 * effectiveModulus * std::sqrt(radius)), 2.0 / 3.0);
-  };
-  const double eStar = 4e7 / (1.0 - 0.49 * 0.49);
   // Both start near their static overlaps: the cube's face on the rigid floor as one Hertz contact of its dilation
   // (E*), the sphere on the cube's face (E*/2, the pair's radius R r_d / (R + r_d)).
-  const double floorOverlap = hertzOverlap((cubeMass + smallMass) * rollingGravity, eStar, cubeDilation);
-  const double pairOverlap = hertzOverlap(smallMass * rollingGravity, 0.5 * eStar,
+  const double floorOverlap = hertzOverlap((cubeMass + rollingMass) * rollingGravity, rollingEStar, cubeDilation);
+  const double pairOverlap = hertzOverlap(rollingMass * rollingGravity, 0.5 * rollingEStar,
                                           rollingRadius * cubeDilation / (rollingRadius + cubeDilation));
   const double x0 = 0.1, y0 = 0.05, cubeZ = halfEdge + cubeDilation - floorOverlap;
   system.addStone(cubeShape, {0.0, 0.0, cubeZ}, {1, 0, 0, 0});

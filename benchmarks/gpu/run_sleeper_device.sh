@@ -62,21 +62,24 @@ export RAILCOSIM_POLYHEDRA_DRIVER="$rt/librailcosim_polyhedra_driver.so" RAILCOS
   nvidia-smi --query-gpu=name,driver_version,memory.total --format=csv,noheader || true
   echo "cores: $(nproc); python: $(${PYTHON:-python3} --version)"
 } | tee "$out/device.txt"
-# The runner and the campaign stop their solvers on SIGTERM, SIGINT or SIGHUP and write their summaries, but a
-# foreground child of bash misses a signal sent to this script alone (e.g. by `timeout`): run it in the background,
-# pass such a signal on to it, and wait for it to finish.
+# The runner and the campaign stop their solvers on SIGTERM, SIGINT or SIGHUP and write their summaries. A signal sent
+# to this script alone (kill PID, a scheduler; `timeout` signals the whole group) would end bash and leave a foreground
+# child running: run it in the background, pass such a signal on to it, and wait for it to finish.
+forwarded_child=
 forwarding() {
+  trap 'kill -TERM "$forwarded_child" 2>/dev/null' TERM
+  trap 'kill -HUP "$forwarded_child" 2>/dev/null' HUP
+  trap 'kill -INT "$forwarded_child" 2>/dev/null' INT
   "$@" &
-  local child=$!
-  trap 'kill -TERM "$child" 2>/dev/null' TERM HUP
-  trap 'kill -INT "$child" 2>/dev/null' INT
+  forwarded_child=$!
   local status
-  wait "$child"
+  wait "$forwarded_child"
   status=$?
-  while kill -0 "$child" 2>/dev/null; do # a signal ended `wait` early: the child is still stopping
-    wait "$child"
+  while kill -0 "$forwarded_child" 2>/dev/null; do # a signal ended `wait` early: the child is still stopping
+    wait "$forwarded_child"
     status=$?
   done
+  wait "$forwarded_child" 2>/dev/null && status=0 || status=$? # the child's own status, once it has been reaped
   trap - TERM HUP INT
   return "$status"
 }

@@ -24,10 +24,14 @@ def gpu_runs(folders):
     runs = []
     for folder in folders:
         for path in sorted(glob.glob(os.path.join(folder, "*summary.json"))):
-            with open(path) as f:
-                summary = json.load(f)
-            p, m = summary["parameters"], summary["metrics"]
-            if p["particle_shape"] != "sphere" or not m.get("at_rest"):
+            try:
+                with open(path) as f:
+                    summary = json.load(f)
+                p, m = summary["parameters"], summary["metrics"]
+            except (OSError, ValueError, KeyError) as error:
+                raise SystemExit(f"spheres_gpu_plot.py: {path} is not a run's summary.json ({error})")
+            # this case's finished sphere runs only (a folder may hold other records)
+            if summary.get("case") != "angle_of_repose" or p.get("particle_shape") != "sphere" or not m.get("at_rest"):
                 continue
             runs.append((p["ballast_mass_kg"], p["rolling_friction"], p["particle_young"] / 1e9,
                          m["angle_of_repose_deg"], m["angle_spread_deg"]))

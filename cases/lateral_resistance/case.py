@@ -1,11 +1,15 @@
 """Lateral resistance of a sleeper in ballast (DEM only): peak force against the laboratory line and the thesis's DEM
 line, shares of base, sides and shoulder, vertical equilibrium and the mobilised base friction (see README.md)."""
 import os
+import sys
 
 import numpy as np
 
 from railcosim import results
 from railcosim.case import Case
+
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+import bed_geometry  # noqa: E402  (the bed's profile, shared with dem.py)
 
 GRAVITY = 9.81
 # Peak lateral force against vertical load, F_p = slope F_v + intercept [N]: van 't Zand & Moraal (1997) in the lab,
@@ -73,6 +77,12 @@ class LateralResistance(Case):
         total_end = float(np.mean(raw[end]))
         base_share_end = base_lateral / total_end if total_end > 0 else 0.0
         reference = lab_peak(p)
+        # The bed as the push starts (after the rest under the sleeper): its porosity against the thesis's pre-packed
+        # 39.44 % (T5) and 39.43 % (T7), whole and in its parts.
+        if "bed_spheres_at_start" not in series:
+            raise ValueError(f"{out}: the records have no bed at the push's start (a run of an earlier dem.py)")
+        sleeper_z = p["ballast_depth"] + 0.5 * p["sleeper_height"] - info["sleeper_sink_m"]
+        porosity = bed_geometry.porosities(p, series["bed_spheres_at_start"], sleeper_z)
         metrics = {"peak_lateral_force_N": peak, "vertical_load_N": p["vertical_load_N"],
                    "peak_displacement_m": float(u[k]), "force_at_end_N": float(force[-1]),
                    "peak_of_records_N": float(np.max(raw)),
@@ -83,6 +93,7 @@ class LateralResistance(Case):
                    **{f"{f}_share_at_peak": float(share[f][k]) for f in faces},
                    **{f"{f}_share_beyond_2_5mm": v for f, v in shares_late.items()},
                    "base_share_first_record": float(series["base_lateral_force"][0] / raw[0]) if raw[0] > 0 else 0.0,
+                   **{f"porosity_{name}": value for name, value in porosity.items()},
                    "spheres": info["spheres"], "dem_dt_s": info["dt"], "push_steps": info["push_steps"],
                    "packing_wall_time_s": info["packing_wall_time_s"], "push_wall_time_s": info["push_wall_time_s"]}
         # Shares are undefined where the total force is not positive (a frictionless sleeper before its end meets

@@ -16,19 +16,21 @@ from railcosim import bedcache, results, track
 parameters_path, _, out = sys.argv[1:4]
 with open(parameters_path) as f:
     p = json.load(f)
+sys.path.insert(0, p["case_dir"])
+import bed_geometry  # noqa: E402  (the case folder's: the bed's profile, shared with case.py)
+
 wall_start = time.monotonic()
 
 # 1. Geometry (m). x: along the sleeper (the push), y: along the track, z: up; z = 0 is the concrete slab.
 L, B, H = p["sleeper_length"], p["sleeper_width"], p["sleeper_height"]
 depth = p["ballast_depth"]                          # ballast under the sleeper
-crest = depth + H - p["crest_drop_m"]               # ballast surface: crib and shoulder, level with the sleeper top
+crest = bed_geometry.crest(p)                       # ballast surface: crib and shoulder, level with the sleeper top
 half_y = 0.5 * p["sleeper_spacing"]                 # mirror walls halfway to the next sleepers
-shoulder_x = 0.5 * L + p["shoulder_width"]          # outer edge of the crest
 
 
 def profile_x(z):
-    """Outer edge of the bed at height z: the crest, then the shoulder slope (horizontal : vertical)."""
-    return shoulder_x + p["shoulder_slope"] * max(0.0, crest - z)
+    """Outer edge of the bed at height z (bed_geometry.profile_x)."""
+    return float(bed_geometry.profile_x(p, z))
 
 
 x_box = profile_x(0.0) + 0.05                       # packing box (end walls) a little beyond the toe of the slope

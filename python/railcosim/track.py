@@ -143,14 +143,30 @@ def bed_structure(bed, samples=200000, seed=0):
     if np.any(high <= low):
         raise ValueError(f"the bed is too small for an interior one largest radius ({margin:.3f} m) from its sides")
     tree = cKDTree(centres)
-    points = low + (high - low) * np.random.default_rng(seed).random((samples, 3))
-    distance, nearest = tree.query(points, k=min(8, len(bed)))
-    solid = float(np.mean((distance < radii[nearest]).any(axis=1)))
+    porosity = sampled_porosity(bed, low, high, samples=samples, seed=seed, tree=tree)
     pairs = np.array(sorted(tree.query_pairs(2.0 * radii.max())), dtype=int).reshape(-1, 2)
     gap = np.linalg.norm(centres[pairs[:, 0]] - centres[pairs[:, 1]], axis=1) - radii[pairs].sum(axis=1)
     contacts = np.bincount(pairs[gap < 0].ravel(), minlength=len(bed))
     interior = np.all((centres > low) & (centres < high), axis=1)
-    return 1.0 - solid, float(contacts[interior].mean()) if interior.any() else float("nan")
+    return porosity, float(contacts[interior].mean()) if interior.any() else float("nan")
+
+
+def sampled_porosity(bed, low, high, inside=None, samples=200000, seed=0, tree=None):
+    """Porosity of a bed of spheres, rows (x, y, z, r), in the part of the box [low, high] where `inside(points)`
+    (points (n, 3) -> bool mask; None: the whole box) holds, from random points: a point is solid when it lies in one
+    of its 8 nearest spheres by centre (exact while no sphere is more than about twice the smallest). Sampling error
+    about sqrt(n(1-n)/m) for m points inside (0.1 % at 200,000)."""
+    from scipy.spatial import cKDTree
+    tree = tree if tree is not None else cKDTree(bed[:, :3])
+    low, high = np.asarray(low, dtype=float), np.asarray(high, dtype=float)
+    points = low + (high - low) * np.random.default_rng(seed).random((samples, 3))
+    if inside is not None:
+        points = points[inside(points)]
+    if len(points) == 0:
+        raise ValueError("no sample point lies in the region: it is empty or outside the box")
+    k = min(8, len(bed))
+    distance, nearest = (a.reshape(len(points), k) for a in tree.query(points, k=k))  # (n,) when k = 1
+    return 1.0 - float(np.mean((distance < bed[:, 3][nearest]).any(axis=1)))
 
 
 def sleeper_nodes(node_positions, base_z):

@@ -110,6 +110,20 @@ class BedStructureTest(unittest.TestCase):
         self.assertAlmostEqual(porosity, 1 - np.pi / (3 * np.sqrt(2)), delta=0.005)
         self.assertEqual(coordination, 12.0)
 
+    def test_sampled_porosity_of_regions(self):
+        """One sphere of radius R in its bounding cube: solid fraction pi/6, so porosity 1 - pi/6 (200,000 points:
+        sampling error 0.11 %, tolerance 0.5 %); a region inside the sphere is solid (0 exactly), one outside it void
+        (1 exactly), and a region no point falls in is refused."""
+        R = 0.3
+        bed = np.array([[0.0, 0.0, 0.0, R]])
+        low, high = [-R] * 3, [R] * 3
+        self.assertAlmostEqual(track.sampled_porosity(bed, low, high), 1 - np.pi / 6, delta=0.005)
+        centre_distance = lambda points: np.linalg.norm(points, axis=1)
+        self.assertEqual(track.sampled_porosity(bed, low, high, lambda q: centre_distance(q) < 0.5 * R), 0.0)
+        self.assertEqual(track.sampled_porosity(bed, low, high, lambda q: centre_distance(q) > 1.01 * R), 1.0)
+        with self.assertRaisesRegex(ValueError, "no sample point"):
+            track.sampled_porosity(bed, low, high, lambda q: q[:, 0] > R)
+
     def test_too_small_a_bed_is_refused(self):
         """A bed less than two largest radii across has no interior: a ValueError that says so."""
         bed = self.lattice([[0, 0, 0]], 1, 1.0, 0.5)

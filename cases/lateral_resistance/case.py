@@ -64,7 +64,9 @@ class LateralResistance(Case):
         # the ballast-sleeper mu (Coulomb), less where contacts stick or the layer under the sleeper moves with it.
         end = u >= 0.8 * u[-1]
         base_lateral = float(np.mean(series["base_lateral_force"][end]))
-        mobilised = base_lateral / float(np.mean(series["base_normal_force"][end]))
+        base_vertical = float(np.mean(series["base_normal_force"][end]))
+        # None when the base has left the grains (a sleeper riding up on its crib carries nothing on its base)
+        mobilised = base_lateral / base_vertical if base_vertical > 0 else None
         # Coulomb on the base contacts: their tangential forces' lateral part over their normal forces' magnitudes,
         # summed over the push. |F_t| <= mu |F_n| per contact, so for the sum, whatever the contacts' normals (an edge
         # contact's normal force also pushes sideways, which is why the whole base's lateral force may exceed mu).

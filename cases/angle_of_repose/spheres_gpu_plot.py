@@ -1,9 +1,10 @@
 #!/usr/bin/python3
 """result_spheres_gpu_size.png: T1 on the GPU machine (Irazábal 2017 §6.2.1, Fig 6.4). Left, the spheres' angle of
 repose at the thesis's η_r = 0.2 against the amount of ballast: the desk's YADE runs (results/runs.csv, 3 µs, E 2.4
-GPa) and the polyhedra library's runs on the H200 (their summary.json files, any E and seed), up to the rig's limit
-(RIG_LIMIT_KG); right, the angle against η_r at 480 kg and 0.15 GPa, with the η_r that gives 40° by linear
-interpolation. Error bars: the spread over the pile's four flanks.
+GPa) and the polyhedra library's runs on the H200 that ended at rest (their summary.json files, any E and seed; a
+run whose heap buried the outlet never does), with the most ballast the rig piled (RIG_LIMIT_KG) marked; right, the
+angle against η_r at 480 kg and 0.15 GPa, with the η_r that gives 40° by linear interpolation. Error bars: the spread
+over the pile's four flanks.
 
 Usage: /usr/bin/python3 cases/angle_of_repose/spheres_gpu_plot.py [FOLDER ...]
 (default: benchmarks/results/angle_of_repose_gpu/h200_2026-11-30)

@@ -16,12 +16,13 @@ def profile_x(p, z):
 
 
 def porosities(p, bed, sleeper_z, samples=400000, seed=0):
-    """Porosity of a packed bed (rows x, y, z, r) with the sleeper's centre at height sleeper_z: {"bed": the whole
-    bed, between the slab, the mirror walls, the crest and the slopes, less the sleeper; "under_sleeper": the layer
-    under the sleeper's base, over the sleeper's length and the whole width between the mirror walls; "crib_shoulder":
-    the rest, above that layer}. Random points (railcosim.track.sampled_porosity; 400,000 in the box: about 0.2 %
-    sampling error in the smallest region). The walls' and the surface's looser layers count, as a packed volume's
-    porosity counts them."""
+    """Porosity of a packed bed (rows x, y, z, r) with the sleeper's centre at height sleeper_z, as fractions:
+    {"bed": the whole bed, between the slab, the mirror walls, the crest and the slopes, less the sleeper's column (the
+    sleeper and the space above it up to the crest, where no grain is rained); "under_sleeper": the layer under the
+    sleeper's base, over the sleeper's length and the whole width between the mirror walls; "crib_shoulder":
+    everything else, crib and shoulders down to the slab}. Random points (railcosim.track.sampled_porosity; 400,000
+    in the box: about 0.2 % sampling error in the smallest region). The walls' and the surface's looser layers count,
+    as a packed volume's porosity counts them."""
     from railcosim import track
     top, half_y = crest(p), 0.5 * p["sleeper_spacing"]
     base = sleeper_z - 0.5 * p["sleeper_height"]  # the sleeper's base, on the highest grain under it
@@ -29,7 +30,7 @@ def porosities(p, bed, sleeper_z, samples=400000, seed=0):
 
     def in_bed(q):
         sleeper = ((np.abs(q[:, 0]) < 0.5 * p["sleeper_length"]) & (np.abs(q[:, 1]) < 0.5 * p["sleeper_width"]) &
-                   (q[:, 2] > base) & (q[:, 2] < base + p["sleeper_height"]))
+                   (q[:, 2] > base))
         return (np.abs(q[:, 0]) <= profile_x(p, q[:, 2])) & ~sleeper
 
     under = lambda q: in_bed(q) & (np.abs(q[:, 0]) < 0.5 * p["sleeper_length"]) & (q[:, 2] < base)

@@ -108,7 +108,8 @@ def fem_arguments(p):
             "subballastThickness": p["subballast_thickness"] if layers else 0.0,
             "formationThickness": p["formation_thickness"] if layers else 0.0,
             "subballastE": p["subballast_young"], "formationE": p["formation_young"],
-            "bedWidth": 0.5 * p["sleeper_length"] + p["shoulder_width"], "layerMeshSize": p["layer_mesh_size"]}
+            "bedWidth": 0.5 * p["sleeper_length"] + p["shoulder_width"], "layerMeshSize": p["layer_mesh_size"],
+            "linearSolver": p["fem_linear_solver"]}
 
 
 def grading(size_scale):

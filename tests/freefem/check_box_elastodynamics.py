@@ -104,11 +104,21 @@ def cantilever_static(args):
     bending = tip_load * length ** 3 / (3.0 * YOUNGS_MODULUS * second_moment)
     shear = tip_load * length / (KAPPA * SHEAR_MODULUS * area)
     reference = bending + shear
-    summary, _ = run_solver(args, "cantilever_static", [
-        "-mode", "static", "-Lx", length, "-Ly", width, "-Lz", height, "-nx", 20, "-ny", 2, "-nz", 2,
-        "-order", 2, "-clamped", "4", "-coupled", 2, "-pressure", pressure,
-        "-monitor", "%r,%r,%r" % (length, width / 2, height / 2)])
+    options = ["-mode", "static", "-Lx", length, "-Ly", width, "-Lz", height, "-nx", 20, "-ny", 2, "-nz", 2,
+               "-order", 2, "-clamped", "4", "-coupled", 2, "-pressure", pressure,
+               "-monitor", "%r,%r,%r" % (length, width / 2, height / 2)]
+    summary, _ = run_solver(args, "cantilever_static", options)
     deflection = -summary["finalMonitorDisplacement"][2]
+    # The same system by UMFPACK (-linearSolver umfpack): two direct solvers of a well-posed system agree to
+    # round-off, 5e-12 here; 1e-9 fails any solver that solved another system or only part of it.
+    umfpack, _ = run_solver(args, "cantilever_static_umfpack", options + ["-linearSolver", "umfpack"])
+    other = -umfpack["finalMonitorDisplacement"][2]
+    expect(abs(other - deflection) <= 1e-9 * abs(deflection),
+           "UMFPACK's tip deflection equals MUMPS's to 1e-9 (got %.3e relative)" % (abs(other - deflection) / deflection))
+    code, output = run_solver(args, "cantilever_static_bad_solver", options + ["-linearSolver", "superlu"],
+                              expect_success=False)
+    expect(code != 0 and "-linearSolver superlu is not one of mumps, umfpack" in output,
+           "an unknown -linearSolver is refused with a message (exit %d)" % code)
     error = (deflection - reference) / reference
     print("  tip deflection %.5e m, Timoshenko %.5e m (bending %.5e + shear %.5e), error %+.2f %%"
           % (deflection, reference, bending, shear, 100 * error))

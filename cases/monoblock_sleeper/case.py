@@ -19,8 +19,7 @@ class MonoblockSleeper(Case):
         the local indentation under the nodal forces of the base (as the beam case monitors its axis)."""
         return {"geo": os.path.join(solvers.root(), "freefem_scripts", "examples", "monoblock_sleeper.geo"),
                 "meshSize": p["mesh_size"], "E": p["sleeper_young"], "nu": p["sleeper_poisson"],
-                "rho": p["sleeper_density"], "rayleighMass": p["rayleigh_mass"], "monitor": "1.3,0,-0.0875",
-                "linearSolver": p["fem_linear_solver"]}
+                "rho": p["sleeper_density"], "rayleighMass": p["rayleigh_mass"], "monitor": "1.3,0,-0.0875"}
 
     def reference_runs(self, p, out):
         """Static solves of the same FreeFEM sleeper on the coupled run's mesh: (1) under the particles' weight as a

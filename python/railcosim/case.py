@@ -91,9 +91,10 @@ class Case:
 
     def fem_reference(self, p, out, name, mode, **options):
         """(name, argv) of a solver-only run of fem_script on the same structure, in `mode` (static, direct), with
-        extra options, writing to OUT/name: the usual entry of reference_runs."""
+        extra options and the coupled run's linear solver, writing to OUT/name: the usual entry of reference_runs."""
         return name, solvers.freefem_command(solvers.fem_script(self.fem_script), mode, os.path.join(out, name),
-                                             {**options, **self.fem_arguments(p)})
+                                             {"linearSolver": p["fem_linear_solver"], **options,
+                                              **self.fem_arguments(p)})
 
 
 # Hooks a case must define, and alternatives that stand in for one ({hook: the hook that replaces it}).

@@ -25,6 +25,11 @@ SHARED_DEFAULTS = {
         "implicit_relaxation": 0.5,     # implicit scheme: first relaxation factor of a window
         "aitken": True,                 # implicit scheme: dynamic Aitken relaxation
     },
+    "fem": {
+        "fem_linear_solver": "mumps",   # FreeFEM's -linearSolver: "mumps" (MUMPS_seq) or "umfpack", which repeats a
+                                        # run bit for bit (MUMPS_seq's automatic ordering varies from run to run, at
+                                        # about 1e-9) for several times MUMPS's time a solve on 3D meshes
+    },
     "output": {
         "progress_lines": 10,           # progress lines each solver prints over the run
         "snapshot_every_s": -1.0,       # simulated s between ParaView snapshots (fields.xdmf); 0: none; negative:
@@ -60,6 +65,7 @@ SHARED_LIMITS = {
     "implicit_relaxation": {"min_exclusive": 0, "max": 1},
     "progress_lines": {"min": 1},
     "snapshot_every_s": {"min": -1},
+    "fem_linear_solver": {"choices": ["mumps", "umfpack"]},
 }
 
 RULE_KEYS = ("min", "min_exclusive", "max", "max_exclusive", "choices", "divides", "force")

@@ -61,9 +61,10 @@ def progress_period(p):
 def coupled_fem_command(p, endpoint, out, script, structure):
     """The FEM participant of a coupled run: `script` in coupled mode on the run's endpoint, with the [coupling]
     scheme and window (fem_dt), the [output] averaging span and progress period, and the structure's options
-    (Case.fem_arguments), snapshots when the run takes them (railcosim/snapshots.py); it writes to OUT/fem."""
+    (Case.fem_arguments), the linear solver (fem_linear_solver), snapshots when the run takes them
+    (railcosim/snapshots.py); it writes to OUT/fem."""
     options = {"endpoint": endpoint, "scheme": p["scheme"], "dt": p["fem_dt"], "averageSteps": average_steps(p),
-               "progressEvery": progress_period(p), **structure}
+               "progressEvery": progress_period(p), "linearSolver": p["fem_linear_solver"], **structure}
     if snapshots.snapshot_windows(p):
         options["snapshotSteps"] = snapshots.snapshot_windows(p)  # one FEM step per window: the DEM's numbering
     return freefem_command(script, "coupled", os.path.join(out, "fem"), options)

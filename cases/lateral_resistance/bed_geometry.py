@@ -20,7 +20,7 @@ def porosities(p, bed, sleeper_z, samples=400000, seed=0):
     {"bed": the whole bed, between the slab, the mirror walls, the crest and the slopes, less the sleeper's column (the
     sleeper and the space above it up to the crest, where no grain is rained); "under_sleeper": the layer under the
     sleeper's base, over the sleeper's length and the whole width between the mirror walls; "crib_shoulder":
-    everything else, crib and shoulders down to the slab}. Random points (railcosim.track.sampled_porosity; 400,000
+    everything else, crib and shoulders down to the slab}. Random points (railcosim.track.sampled_porosities; 400,000
     in the box: about 0.2 % sampling error in the smallest region). The walls' and the surface's looser layers count,
     as a packed volume's porosity counts them."""
     from railcosim import track
@@ -35,5 +35,5 @@ def porosities(p, bed, sleeper_z, samples=400000, seed=0):
 
     under = lambda q: in_bed(q) & (np.abs(q[:, 0]) < 0.5 * p["sleeper_length"]) & (q[:, 2] < base)
     above = lambda q: in_bed(q) & ~((np.abs(q[:, 0]) < 0.5 * p["sleeper_length"]) & (q[:, 2] < base))
-    return {name: track.sampled_porosity(bed, low, high, inside, samples, seed)
-            for name, inside in (("bed", in_bed), ("under_sleeper", under), ("crib_shoulder", above))}
+    return track.sampled_porosities(bed, low, high, {"bed": in_bed, "under_sleeper": under, "crib_shoulder": above},
+                                    samples, seed)

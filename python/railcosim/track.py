@@ -108,8 +108,7 @@ def fem_arguments(p):
             "subballastThickness": p["subballast_thickness"] if layers else 0.0,
             "formationThickness": p["formation_thickness"] if layers else 0.0,
             "subballastE": p["subballast_young"], "formationE": p["formation_young"],
-            "bedWidth": 0.5 * p["sleeper_length"] + p["shoulder_width"], "layerMeshSize": p["layer_mesh_size"],
-            "linearSolver": p["fem_linear_solver"]}
+            "bedWidth": 0.5 * p["sleeper_length"] + p["shoulder_width"], "layerMeshSize": p["layer_mesh_size"]}
 
 
 def grading(size_scale):
@@ -154,21 +153,31 @@ def bed_structure(bed, samples=200000, seed=0):
 
 def sampled_porosity(bed, low, high, inside=None, samples=200000, seed=0, tree=None):
     """Porosity of a bed of spheres, rows (x, y, z, r), in the part of the box [low, high] where `inside(points)`
-    (points (n, 3) -> bool mask; None: the whole box) holds, from random points: a point is solid when it lies in one
-    of its 16 nearest spheres by centre (exact unless 16 other centres lie nearer than that of a sphere holding it,
-    which needs spheres many times smaller than their neighbours). Sampling error about sqrt(n(1-n)/m) for m points
-    inside (0.1 % at 200,000)."""
+    (points (n, 3) -> bool mask; None: the whole box) holds: sampled_porosities with that one region."""
+    whole = lambda points: np.ones(len(points), dtype=bool)
+    return sampled_porosities(bed, low, high, {"region": inside or whole}, samples, seed, tree)["region"]
+
+
+def sampled_porosities(bed, low, high, regions, samples=200000, seed=0, tree=None):
+    """{name: porosity} of a bed of spheres, rows (x, y, z, r), in each region {name: inside(points) -> bool mask} of
+    the box [low, high], from one set of random points in the box: a point is solid when it lies in one of its 16
+    nearest spheres by centre (exact unless 16 other centres lie nearer than that of a sphere holding it, which needs
+    spheres many times smaller than their neighbours). Sampling error about sqrt(n(1-n)/m) for m points in a region
+    (0.1 % at 200,000). A region no point falls in is refused."""
     from scipy.spatial import cKDTree
     tree = tree if tree is not None else cKDTree(bed[:, :3])
     low, high = np.asarray(low, dtype=float), np.asarray(high, dtype=float)
     points = low + (high - low) * np.random.default_rng(seed).random((samples, 3))
-    if inside is not None:
-        points = points[inside(points)]
-    if len(points) == 0:
-        raise ValueError("no sample point lies in the region: it is empty or outside the box")
+    masks = {name: np.asarray(inside(points), dtype=bool) for name, inside in regions.items()}
+    for name, mask in masks.items():
+        if not mask.any():
+            raise ValueError(f"no sample point lies in the region {name}: it is empty or outside the box")
+    used = np.logical_or.reduce(list(masks.values()))  # one nearest-sphere query for the points of any region
     k = min(16, len(bed))
-    distance, nearest = (a.reshape(len(points), k) for a in tree.query(points, k=k))  # (n,) when k = 1
-    return 1.0 - float(np.mean((distance < bed[:, 3][nearest]).any(axis=1)))
+    distance, nearest = (a.reshape(int(used.sum()), k) for a in tree.query(points[used], k=k))  # (n,) when k = 1
+    solid = np.zeros(len(points), dtype=bool)
+    solid[used] = (distance < bed[:, 3][nearest]).any(axis=1)
+    return {name: 1.0 - float(np.mean(solid[mask])) for name, mask in masks.items()}
 
 
 def sleeper_nodes(node_positions, base_z):

@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # Packs what the sleeper-on-ballast case needs on a GPU machine without YADE, FreeFEM, ZeroMQ or a package registry
 # (docs/benchmarks.md, "Sleeper on ballast on the GPU machine"), into one archive that travels with the working tree:
-#   freefem/FreeFem++, freefem/plugins (msh3, MUMPS_seq, iovtk, and railcosim_bridge of this build),
+#   freefem/FreeFem++, freefem/plugins (msh3, gmsh, MUMPS_seq, iovtk, and railcosim_bridge of this build),
 #   freefem/idp (FreeFEM's include scripts), lib/ and driverlib/ (every library ldd lists for FreeFEM, for the
 #   polyhedra driver, but glibc's own and the C++ and OpenMP runtimes, which the machine's newer ones serve),
 #   librailcosim_polyhedra_driver.so (built here with RAILCOSIM_WITH_CUDA=ON: the CUDA backend for sm_90 inside),
@@ -21,7 +21,7 @@ stage=$(mktemp -d)
 trap 'rm -rf "$stage"' EXIT
 mkdir -p "$stage/runtime/freefem/plugins"
 cp /usr/bin/FreeFem++ "$stage/runtime/freefem/"
-for p in msh3 MUMPS_seq iovtk; do cp "/usr/lib/freefem++/$p.so" "$stage/runtime/freefem/plugins/"; done
+for p in msh3 gmsh MUMPS_seq iovtk; do cp "/usr/lib/freefem++/$p.so" "$stage/runtime/freefem/plugins/"; done
 cp "$bridge_plugin" "$stage/runtime/freefem/plugins/"
 cp -r /usr/include/freefem++/idp "$stage/runtime/freefem/idp"
 cp "$driver" "$stage/runtime/"

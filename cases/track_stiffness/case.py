@@ -28,8 +28,12 @@ class TrackStiffness(Case):
 
     def preparation_runs(self, p, out):
         """The ballast bed (bed.py): packed once per parameter set and kept in the bed cache; later runs reuse it."""
-        return [("bed", [os.path.join(solvers.root(), "railcosim"), "yade", os.path.join(p["case_dir"], "bed.py"),
-                         os.path.join(out, "parameters.json"), out])]
+        return [("bed", track.dem_script(p, "bed.py", os.path.join(out, "parameters.json"), out))]
+
+    def dem_command(self, p, endpoint, out):
+        """dem.py (YADE) or dem_driver.py (dem_driver = "standalone": the polyhedra library)."""
+        script = "dem.py" if p["dem_driver"] == "yade" else "dem_driver.py"
+        return track.dem_script(p, script, os.path.join(out, "parameters.json"), endpoint, out)
 
     def fem_command(self, p, endpoint, out):
         """track.edp coupled; with subgrade = "layers" the layers' top at the packed bed's base (bed.py's BED_INFO)."""
@@ -39,7 +43,7 @@ class TrackStiffness(Case):
         return solvers.coupled_fem_command(p, endpoint, out, solvers.fem_script(self.fem_script), arguments)
 
     def check_parameters(self, p):
-        problems = []
+        problems = track.check(p)
         if p["load_start_s"] + p["ramp_s"] + p["average_s"] > p["duration_s"] + 1e-12:
             problems.append(f"duration_s {p['duration_s']} leaves no hold of average_s {p['average_s']} after the "
                             f"ramp (load_start_s + ramp_s = {p['load_start_s'] + p['ramp_s']} s)")
@@ -102,7 +106,7 @@ class TrackStiffness(Case):
         #    The modulus is the support's mean over the quarter: its reaction Q/2 over the rail's deflection integrated
         #    from 0 to end_x (the sleepers' support stiffness over their spacing, averaged along the rail).
         bending = fem["railSecondMoment"] * p["rail_young"]
-        modulus = 0.5 * wheel / np.trapz(rail_line, x)
+        modulus = 0.5 * wheel / results.trapezoid(rail_line, x)
         winkler = track.winkler_deflection(x, wheel, modulus, bending, period=2 * fem["endX"])
         winkler_error = float(np.max(np.abs(rail_line - winkler)) / winkler[0])
         beta = (modulus / (4 * bending)) ** 0.25
@@ -118,7 +122,7 @@ class TrackStiffness(Case):
             base = float(np.mean(np.asarray(series["base_force"])[dem_hold]))
         bed_weight = dem["total_particle_mass_kg"] * track.GRAVITY
         # The bed's porosity between its base and the sleepers' base (Irazábal §7.2: 39.41 %).
-        bed_volume = fem["endX"] * (0.5 * p["sleeper_length"] + p["shoulder_width"]) * -base_z
+        bed_volume = fem["endX"] * track.bed_width(p) * -base_z
         porosity = 1.0 - dem["total_particle_mass_kg"] / p["ballast_density"] / bed_volume
         track_error = abs(interface - carried) / carried
         base_error = abs(base - (interface + bed_weight)) / (interface + bed_weight)

@@ -6,7 +6,7 @@ import os
 
 import numpy as np
 
-from railcosim import results, solvers, track
+from railcosim import results, track
 from railcosim.case import Case
 
 # Irazábal 2017 §7.2.2-7.2.3 (reference digest T9-T10): the sleepers' peak displacement under the axles on compacted
@@ -66,25 +66,18 @@ class TrainPassage(Case):
                 "axles": ",".join(f"{x:.6g}" for x in axle_positions(p)), "speed": p["speed"],
                 "exitLength": p["exit_length"], "seatFactor": p["seat_factor"], "seatTime": p["seat_time_s"]}
 
-    @staticmethod
-    def _track_case(p):
-        """cases/track_stiffness, whose bed.py (preparation run) and dem.py (YADE participant) build the same bed scene
-        of railcosim.track for this case's parameters."""
-        return os.path.join(os.path.dirname(p["case_dir"]), "track_stiffness")
-
     def preparation_runs(self, p, out):
         """The ballast bed (track_stiffness's bed.py): packed once per parameter set and kept in the bed cache."""
-        return [("bed", [os.path.join(solvers.root(), "railcosim"), "yade", os.path.join(self._track_case(p), "bed.py"),
-                         os.path.join(out, "parameters.json"), out])]
+        return [("bed", track.dem_script(p, "bed.py", os.path.join(out, "parameters.json"), out))]
 
     def dem_command(self, p, endpoint, out):
-        """The YADE participant: track_stiffness's dem.py (the bed under the coupled sleepers' bases; its record holds
-        the interface's nodal forces, from which the sleepers' loads are summed)."""
-        return [os.path.join(solvers.root(), "railcosim"), "yade", os.path.join(self._track_case(p), "dem.py"),
-                os.path.join(out, "parameters.json"), endpoint, out]
+        """track_stiffness's dem.py (YADE) or dem_driver.py (dem_driver = "standalone"): the bed under the coupled
+        sleepers' bases; its record holds the interface's nodal forces, from which the sleepers' loads are summed."""
+        script = "dem.py" if p["dem_driver"] == "yade" else "dem_driver.py"
+        return track.dem_script(p, script, os.path.join(out, "parameters.json"), endpoint, out)
 
     def check_parameters(self, p):
-        problems = []
+        problems = track.check(p)
         if p["x_symmetry"]:
             problems.append("x_symmetry: the moving wheels need the half track (x_symmetry = false)")
         if p["seat_time_s"] + p["average_s"] > p["load_start_s"] + 1e-12:
@@ -172,7 +165,7 @@ class TrainPassage(Case):
         trailing = rolling[inside[0, rolling]]
         ratios, moduli = [], []
         for j in trailing:
-            area = np.trapz(rail_down[:, j], x)
+            area = results.trapezoid(rail_down[:, j], x)
             if area <= 0:  # the rail above its state under the weight (the bed's rebound): no foundation to measure
                 continue
             modulus = applied[j] / area
@@ -193,14 +186,14 @@ class TrainPassage(Case):
         momentum = np.asarray(monitor["momentumZ"])
         net = np.asarray(monitor["forceZ"]) - fem["weight"] - np.asarray(monitor["seatLoad"]) - applied
         steps = slice(1, None)
-        impulse = np.trapz(net[steps], t[steps]) - p["rayleigh_mass"] * np.trapz(momentum[steps], t[steps])
-        scale = np.trapz(fem["weight"] + np.asarray(monitor["seatLoad"])[steps] + applied[steps], t[steps])
+        impulse = results.trapezoid(net[steps], t[steps]) - p["rayleigh_mass"] * results.trapezoid(momentum[steps], t[steps])
+        scale = results.trapezoid(fem["weight"] + np.asarray(monitor["seatLoad"])[steps] + applied[steps], t[steps])
         momentum_error = abs(impulse - (momentum[-1] - momentum[1])) / scale
 
         # 5. The bed: porosity overall and in the loose zone (the packed bed of the cache, between its base and z = 0).
         with np.load(dem["packed_bed"]) as saved:
             bed = saved["bed"]
-        width = 0.5 * p["sleeper_length"] + p["shoulder_width"]
+        width = track.bed_width(p)
 
         def porosity(x0, x1):
             inside_bed = (bed[:, 0] >= x0) & (bed[:, 0] < x1)
@@ -319,7 +312,7 @@ class TrainPassage(Case):
         d.plot(wheel_x[0, j], under[0, j] * 1e3, label="rail under the trailing wheel (FEM)")
         winkler = []
         for i in j:
-            area = np.trapz(rail_down[:, i], x)
+            area = results.trapezoid(rail_down[:, i], x)
             modulus = applied[i] / area if area > 0 else np.nan
             loads = [(wheel_x[n, i], wheel_load[n, i]) for n in range(wheel_x.shape[0]) if wheel_load[n, i] > 0]
             winkler.append(track.winkler_mirrored([wheel_x[0, i]], loads, modulus, bending, fine[0], fine[-1])[0])

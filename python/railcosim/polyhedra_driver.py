@@ -61,7 +61,7 @@ def _library():
             "rcp_add_stone": (i, [p, _D, i, d, d, _D, _D, _D, _D]), "rcp_set_walls": (i, [p, _D, i, _I, _D, i]),
             "rcp_set_rolling_friction": (i, [p, d, _D, i]),
             "rcp_initialize": (i, [p]), "rcp_critical_time_step": (d, [p, d, d]), "rcp_set_time_step": (i, [p, d]),
-            "rcp_time_step": (d, [p]), "rcp_set_wall_velocity": (i, [p, _I, i, _D]),
+            "rcp_time_step": (d, [p]), "rcp_set_damping": (i, [p, d]), "rcp_set_wall_velocity": (i, [p, _I, i, _D]),
             "rcp_set_wall_node_velocities": (i, [p, _I, i, _D]), "rcp_step": (i, [p, i]),
             "rcp_wall_force": (i, [p, _I, i, _D]), "rcp_time": (d, [p]), "rcp_stone_count": (i, [p]),
             "rcp_templates": (i, [p]), "rcp_mean_contacts": (d, [p]), "rcp_backend": (i, [p, s, i]),
@@ -149,7 +149,8 @@ class PolyhedraBed:
 
     def set_rolling_friction(self, stones, walls=()):
         """Bounded rolling friction η_r [-] of the stones and of the first len(walls) wall materials (set_walls'
-        order; the rest 0); a pair takes the larger of its two. It turns sphere stones only (one core vertex, the
+        order; the rest 0; one value more than set_walls' materials is the coupled surface's, connect's
+        surface_material); a pair takes the larger of its two. It turns sphere stones only (one core vertex, the
         dilation its radius). Before the first add_stone."""
         w = _doubles(walls)
         self._check(self._lib.rcp_set_rolling_friction(self._handle, float(stones), _pointer(w), w.size))
@@ -185,6 +186,11 @@ class PolyhedraBed:
     @dt.setter
     def dt(self, value):
         self._check(self._lib.rcp_set_time_step(self._handle, float(value)))
+
+    def set_damping(self, share):
+        """Non-viscous damping of the stones' translation from the next step on (YADE's NewtonIntegrator.damping): a
+        force component loses `share` [0, 1) while it accelerates its stone. For packings; 0 in a physical run."""
+        self._check(self._lib.rcp_set_damping(self._handle, float(share)))
 
     @property
     def time(self):

@@ -7,6 +7,9 @@ import os
 
 import numpy as np
 
+# The trapezoidal rule under either name: NumPy 2 (the GPU machine's) has trapezoid only, Debian bookworm's 1.24 trapz.
+trapezoid = getattr(np, "trapezoid", None) or np.trapz
+
 
 def coupling_info(coupling):
     """The coupling engine's figures every case writes to dem_info.json: exchanges, costs, scheme,

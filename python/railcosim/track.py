@@ -27,11 +27,13 @@ quarter without a loose zone).
 """
 import math
 import os
+import sys
 
 import numpy as np
 
 from railcosim import bedcache
 
+ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))  # the repository
 FEM_SCRIPT = "examples/track.edp"
 BED_INFO = "bed.json"  # the preparation run's figures of the packed bed (base_z [m], spheres, cache file)
 GRAVITY = 9.81
@@ -83,6 +85,26 @@ def end_x(p):
     return (p["sleepers"] - 0.5) * p["sleeper_spacing"]
 
 
+def bed_width(p):
+    """y [m] of the shoulder's wall: half a sleeper and the shoulder beyond it."""
+    return 0.5 * p["sleeper_length"] + p["shoulder_width"]
+
+
+def pwave_time_step(radii, young, density):
+    """YADE's utils.PWaveTimeStep for spheres of one material: the smallest radius over the P-wave speed
+    sqrt(E / rho) [s] (the track's DEM step is dem_dt_safety times it, whichever driver runs the bed)."""
+    return float(np.min(radii)) / math.sqrt(young / density)
+
+
+def highest_under_sleepers(p, bed):
+    """z [m] of the highest grain top under a sleeper's base, of a bed of rows (x, y, z, r): the packed bed is lifted
+    by minus this, so that the track rests on it from the start."""
+    half_width = 0.5 * p["sleeper_width"]
+    under = (np.abs(bed[:, 0] - p["sleeper_spacing"] * np.rint(bed[:, 0] / p["sleeper_spacing"])) < half_width) & \
+            (bed[:, 1] < 0.5 * p["sleeper_length"])
+    return float(np.max(bed[under, 2] + bed[under, 3]))
+
+
 def stations(p):
     """x [m] of the deflection line's points: every sixth of a spacing (the seats and the mid-spans among them),
     start_x to end_x."""
@@ -95,8 +117,7 @@ def fem_arguments(p):
     top, baseZ, is the packed bed's base: BED_INFO of the preparation run)."""
     width, height = rail_rectangle()
     layers = p["subgrade"] == "layers"
-    return {"geo": os.path.join(os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__)))),
-                                "freefem_scripts", "examples", "track.geo"),
+    return {"geo": os.path.join(ROOT, "freefem_scripts", "examples", "track.geo"),
             "sleepers": p["sleepers"], "xStart": start_x(p), "spacing": p["sleeper_spacing"],
             "sleeperWidth": p["sleeper_width"],
             "sleeperHalfLength": 0.5 * p["sleeper_length"], "sleeperHeight": p["sleeper_height"],
@@ -108,7 +129,30 @@ def fem_arguments(p):
             "subballastThickness": p["subballast_thickness"] if layers else 0.0,
             "formationThickness": p["formation_thickness"] if layers else 0.0,
             "subballastE": p["subballast_young"], "formationE": p["formation_young"],
-            "bedWidth": 0.5 * p["sleeper_length"] + p["shoulder_width"], "layerMeshSize": p["layer_mesh_size"]}
+            "bedWidth": bed_width(p), "layerMeshSize": p["layer_mesh_size"],
+            **({"mesh": os.path.abspath(p["fem_mesh"])} if p.get("fem_mesh") else {})}
+
+
+def check(p):
+    """The track cases' shared parameter problems (a list; empty: none): what the standalone driver does not hold
+    (railcosim.track_driver.check) and a missing fem_mesh."""
+    problems = []
+    if p.get("dem_driver", "yade") == "standalone":
+        from railcosim import track_driver
+        problems += track_driver.check(p)
+    if p.get("fem_mesh") and not os.path.isfile(p["fem_mesh"]):
+        problems.append(f"fem_mesh: no such file {p['fem_mesh']} (a fem/track.msh of an earlier run of this track)")
+    return problems
+
+
+def dem_script(p, script, *arguments):
+    """The command of a DEM script of cases/track_stiffness (the track cases' bed.py, dem.py, dem_driver.py) on the
+    dem_driver's interpreter: YADE (`railcosim yade`), or this Python with the standalone driver (the polyhedra library,
+    railcosim.track_driver) on dem_threads OpenMP threads."""
+    path = os.path.join(ROOT, "cases", "track_stiffness", script)
+    if p.get("dem_driver", "yade") == "yade":
+        return [os.path.join(ROOT, "railcosim"), "yade", path, *arguments]
+    return ["env", f"OMP_NUM_THREADS={p['dem_threads']}", sys.executable, path, *arguments]
 
 
 def grading(size_scale):
@@ -240,7 +284,7 @@ class TrackBed:
         self.p = p
         self.start_x = start_x(p)
         self.end_x = end_x(p)
-        self.width = 0.5 * p["sleeper_length"] + p["shoulder_width"]  # y of the shoulder's wall
+        self.width = bed_width(p)
         self.depth = p["ballast_depth"]
 
         # 1. Materials (Irazábal 2017 Table 7.1): ballast, sleepers, base (subballast + formation), mirror walls.
@@ -388,10 +432,7 @@ class TrackBed:
         print(f"bed packed: {len(self.spheres)} grains, plate level {level:.4f} m, kinetic energy at rest "
               f"{utils.kineticEnergy():.3g} J", flush=True)
         bed = np.array([[*O.bodies[i].state.pos, O.bodies[i].shape.radius] for i in self.spheres])
-        half_width = 0.5 * p["sleeper_width"]
-        under = (np.abs(bed[:, 0] - p["sleeper_spacing"] * np.rint(bed[:, 0] / p["sleeper_spacing"])) < half_width) & \
-                (bed[:, 1] < 0.5 * p["sleeper_length"])
-        lift = -float(np.max(bed[under, 2] + bed[under, 3]))
+        lift = -highest_under_sleepers(p, bed)
         bed[:, 2] += lift
         O.bodies.clear()
         O.interactions.clear()

@@ -1056,6 +1056,39 @@ BOOST_AUTO_TEST_CASE(point_core_sphere_rests_at_hertz_overlap) {
   BOOST_TEST(std::fabs(system.velocities()[2]) < 1e-6);
 }
 
+// Non-viscous damping (Parameters::damping, YADE's NewtonIntegrator.damping) on a stone in free fall, no contact:
+// gravity accelerates a falling stone, so it acts at (1 - λ) g, and brakes a rising one, so it acts at (1 + λ) g.
+// Constant accelerations, which velocity Verlet integrates exactly: v = v0 + a t and x = x0 + v0 t + a t²/2 up to
+// rounding. Each run starts away from v = 0 and ends before the velocity would cross it.
+// Damping 0 (the default) leaves the fall at g; damping outside [0, 1) is refused.
+BOOST_AUTO_TEST_CASE(non_viscous_damping_scales_gravity_as_the_closed_form) {
+  const double g = 9.81, lambda = 0.3, dt = 1e-5, r = 0.01;
+  for (const double v0 : {-1.0, 1.0}) { // falling, rising
+    Parameters p;
+    p.timeStep = dt;
+    p.gravity = {0, 0, -g};
+    p.damping = lambda;
+    p.stone = Material{1e8, 0.3, 0.4, 0.5};
+    p.backend = Backend::Cpu;
+    PolyhedraSystem system(p);
+    BodyFrameStones stones;
+    stones.add(system, {0.0, 0.0, 0.0}, r, 2700.0, {0.0, 0.0, 1.0}, {1, 0, 0, 0}, {0.0, 0.0, v0}, {0, 0, 0});
+    const int steps = 5000; // 0.05 s: a rising stone at 1 m/s slows by 0.64 m/s, still rising
+    system.step(steps);
+    const double t = steps * dt, a = -g * (v0 < 0 ? 1.0 - lambda : 1.0 + lambda);
+    BOOST_TEST_MESSAGE("v0 " << v0 << " m/s: v " << system.velocities()[2] << " m/s, closed form " << v0 + a * t);
+    BOOST_TEST(std::fabs(system.velocities()[2] - (v0 + a * t)) < 1e-9);              // rounding over 5000 steps
+    BOOST_TEST(std::fabs(system.positions()[2] - (1.0 + v0 * t + 0.5 * a * t * t)) < 1e-9);
+    system.setDamping(0.0);
+    const double v1 = system.velocities()[2];
+    system.step(1000);
+    BOOST_TEST(std::fabs(system.velocities()[2] - (v1 - g * 1000 * dt)) < 1e-9);   // undamped: g again
+  }
+  Parameters bad;
+  bad.damping = 1.0;
+  BOOST_CHECK_THROW(PolyhedraSystem{bad}, std::exception);
+}
+
 // Bounded rolling friction on a sphere stone (a one-vertex core): Irazábal 2017's BROF benchmarks against the
 // rigid-body closed forms of PolyhedraScenarioRuns.hpp, within rollingTolerance (0.2 %, justified there). A stopped
 // spin must stay exactly stopped (the bound never pushes it past zero): 1e-9 rad/s.

@@ -129,3 +129,51 @@ class BedStructureTest(unittest.TestCase):
         bed = self.lattice([[0, 0, 0]], 1, 1.0, 0.5)
         with self.assertRaisesRegex(ValueError, "too small"):
             track.bed_structure(bed)
+
+
+SCENE = {"sleepers": 2, "sleeper_spacing": 0.6, "sleeper_length": 2.52, "sleeper_width": 0.30, "shoulder_width": 0.40,
+         "ballast_depth": 0.30, "size_scale": 3.0, "seed": 1}
+
+
+class StandaloneSceneTest(unittest.TestCase):
+    """railcosim.track_driver's geometry, without the library (the packing itself runs in the case's tests)."""
+
+    def test_walls_face_the_bed(self):
+        """Each wall triangle winds counter-clockwise seen from the stones (the library's convention): its normal
+        (b - a) x (c - a) points from the triangle into the box, towards the box's centre. The walls reach beyond
+        the box (WALL_MARGIN), so that every wall covers the whole face it closes."""
+        from railcosim import track_driver
+        corners, parts = track_driver.walls(SCENE, -0.3, 0.5, plate=0.1)
+        centre = np.array([0.5 * track.end_x(SCENE), 0.5 * track.bed_width(SCENE), 0.05])
+        for name, triangles in parts.items():
+            for k in triangles:
+                a, b, c = corners[k]
+                normal = np.cross(b - a, c - a)
+                self.assertGreater(float(np.dot(normal, centre - (a + b + c) / 3)), 0.0, f"{name} triangle {k}")
+        base = corners[parts["base"]].reshape(-1, 3)
+        self.assertLessEqual(base[:, 0].min(), 0.0)
+        self.assertGreaterEqual(base[:, 0].max(), track.end_x(SCENE))
+        self.assertGreaterEqual(base[:, 1].max(), track.bed_width(SCENE))
+
+    def test_cloud_is_loose_inside_the_box_and_graded(self):
+        """The cloud: no two grains overlap, all inside the box over the floor, at the solid fraction asked
+        (CLOUD_SOLID_FRACTION, to the largest grain's volume), and its mass passing each EN 13450 sieve is the grading's
+        (Irazábal 2017 Table 2.1 mid-points, times size_scale): about 450 grains drawn by mass, whose passing
+        fractions scatter by about 3 points (a few large grains carry most of the mass): tolerance 8 points."""
+        from railcosim import track_driver
+        sys.path.insert(0, os.path.join(os.path.dirname(__file__), "..", "..", "yade_engines", "clusters"))
+        grains, floor, top = track_driver.cloud(SCENE, np.random.default_rng(1))
+        centres, radii = grains[:, :3], grains[:, 3]
+        from scipy.spatial import cKDTree
+        pairs = np.array(sorted(cKDTree(centres).query_pairs(2 * radii.max())), dtype=int).reshape(-1, 2)
+        gaps = np.linalg.norm(centres[pairs[:, 0]] - centres[pairs[:, 1]], axis=1) - radii[pairs].sum(axis=1)
+        self.assertGreaterEqual(gaps.min(), -1e-12)
+        low = np.array([0.0, 0.0, floor])
+        high = np.array([track.end_x(SCENE), track.bed_width(SCENE), top])
+        self.assertTrue(np.all(centres - radii[:, None] >= low - 1e-12) and np.all(centres + radii[:, None] <= high))
+        volume = 4.0 / 3.0 * np.pi * radii ** 3
+        box = float(np.prod(high - low))
+        self.assertAlmostEqual(volume.sum() / box, track.CLOUD_SOLID_FRACTION, delta=volume.max() / box)
+        sizes, passing, _ = track.grading(SCENE["size_scale"])
+        for sieve, share in zip(sizes[1:-1], passing[1:-1]):
+            self.assertAlmostEqual(volume[2 * radii <= sieve].sum() / volume.sum(), share, delta=0.08, msg=sieve)

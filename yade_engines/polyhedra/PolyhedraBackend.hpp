@@ -42,6 +42,7 @@ struct HostData {
   double cellSize = 0.0;
   double timeStep = 0.0;
   Vec3 gravity{0.0, 0.0, 0.0};
+  double damping = 0.0;
   double skin = 0.0;
   double featureTolerance = 0.0;
   int rebuildInterval = 10;

@@ -154,6 +154,7 @@ struct SystemView {
   // parameters
   double timeStep;
   Vec3 gravity;
+  double damping; // non-viscous damping share (Parameters::damping); 0 in a physical run
   double skin;
   double featureTolerance; // fraction of r_d
   // Write pairOutput/wallOutput in this step. Only contacts() reads them, after a `step` call: the GPU
@@ -256,12 +257,28 @@ RAILCOSIM_HOST_DEVICE inline Vec3 halfKickTorque(const SystemView& s, int i, con
 
 // `rotation`: stone i's rotation state, s.rotation[i] or a staged copy of it (the GPU stages a block's states
 // through shared memory, since one thread per 240-byte state reads and writes them field by field).
+// Non-viscous damping of a stone's translation (Cundall; YADE's NewtonIntegrator.damping): each component of the force
+// (contacts and gravity) loses the share `damping` while it accelerates the stone along that axis and gains it while
+// it brakes it. It takes energy from a packing only; a physical run has damping = 0.
+RAILCOSIM_HOST_DEVICE inline Vec3 dampedForce(Vec3 force, const Vec3& velocity, double damping) {
+  if (damping == 0.0) return force;
+  const auto share = [damping](double f, double v) {
+    const double power = f * v;
+    return 1.0 - damping * (power > 0.0 ? 1.0 : power < 0.0 ? -1.0 : 0.0);
+  };
+  force.x *= share(force.x, velocity.x);
+  force.y *= share(force.y, velocity.y);
+  force.z *= share(force.z, velocity.z);
+  return force;
+}
+
 RAILCOSIM_HOST_DEVICE inline void predictStone(const SystemView& s, int i, kernels::RotationState& rotation) {
   const ShapeData& shape = s.shapes[s.shape[i]];
   const double dt = s.timeStep;
   Vec3 velocity = load3(s.velocity, i);
   Vec3 position = load3(s.position, i);
-  kernels::velocityVerletHalfKick(velocity, load3(s.force, i) + shape.mass * s.gravity, shape.mass, dt);
+  const Vec3 force = dampedForce(load3(s.force, i) + shape.mass * s.gravity, velocity, s.damping);
+  kernels::velocityVerletHalfKick(velocity, force, shape.mass, dt);
   kernels::velocityVerletDrift(position, velocity, dt);
   store3(s.velocity, i, velocity);
   store3(s.position, i, position);
@@ -278,7 +295,8 @@ RAILCOSIM_HOST_DEVICE inline void predictStone(const SystemView& s, int i, kerne
 RAILCOSIM_HOST_DEVICE inline void correctStone(const SystemView& s, int i, kernels::RotationState& rotation) {
   const ShapeData& shape = s.shapes[s.shape[i]];
   Vec3 velocity = load3(s.velocity, i);
-  kernels::velocityVerletHalfKick(velocity, load3(s.force, i) + shape.mass * s.gravity, shape.mass, s.timeStep);
+  const Vec3 force = dampedForce(load3(s.force, i) + shape.mass * s.gravity, velocity, s.damping);
+  kernels::velocityVerletHalfKick(velocity, force, shape.mass, s.timeStep);
   store3(s.velocity, i, velocity);
   kernels::zhaoVanWachemCorrect(rotation, principalInertia(shape),
                                 halfKickTorque(s, i, shape, rotation.angularVelocity), s.timeStep);

@@ -480,6 +480,8 @@ PolyhedraSystem::PolyhedraSystem(const Parameters& p) : implementation_(std::mak
   HostData& d = m.data;
   d.timeStep = p.timeStep;
   d.gravity = Vec3{p.gravity[0], p.gravity[1], p.gravity[2]};
+  if (!(p.damping >= 0.0 && p.damping < 1.0)) fail("PolyhedraSystem", "damping must be in [0, 1)");
+  d.damping = p.damping;
   d.featureTolerance = p.featureTolerance;
   d.rebuildInterval = p.rebuildInterval;
   d.adaptiveRebuild = p.adaptiveRebuild;
@@ -742,6 +744,15 @@ void PolyhedraSystem::setGravity(const std::array<double, 3>& gravity) {
   if (gravity[0] == g.x && gravity[1] == g.y && gravity[2] == g.z) return;
   implementation_->data.gravity = Vec3{gravity[0], gravity[1], gravity[2]};
   implementation_->parameters.gravity = gravity;
+  if (implementation_->started) implementation_->backend->parametersChanged();
+}
+
+void PolyhedraSystem::setDamping(double damping) {
+  if (!(damping >= 0.0 && damping < 1.0))
+    fail("setDamping", "damping must be in [0, 1), got " + std::to_string(damping));
+  if (damping == implementation_->data.damping) return;
+  implementation_->data.damping = damping;
+  implementation_->parameters.damping = damping;
   if (implementation_->started) implementation_->backend->parametersChanged();
 }
 

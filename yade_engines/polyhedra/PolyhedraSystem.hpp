@@ -70,6 +70,8 @@ constexpr int maxWallMaterials = 4;
 struct Parameters {
   double timeStep = 1e-6;                         ///< Δt [s]
   std::array<double, 3> gravity{0.0, 0.0, -9.81}; ///< [m/s^2]
+  /// Non-viscous damping share of the stones' translation [0, 1) (YADE's NewtonIntegrator.damping): for packings.
+  double damping = 0.0;
   Material stone;                                 ///< stone–stone contacts
   Material wall; ///< stone–wall/surface contacts (friction, restitution of the pair); per triangle: setWallMaterials
   double neighbourSkin = -1.0;                    ///< Verlet skin [m]; < 0: 0.2 × mean dilation radius
@@ -163,6 +165,7 @@ public:
   /// Changes Δt [s] / gravity [m/s^2] for the following steps (e.g. a coarse packing phase, YADE's O.dt).
   void setTimeStep(double timeStep);
   void setGravity(const std::array<double, 3>& gravity);
+  void setDamping(double damping);
 
   /// Advances `steps` time steps. Throws Error if a neighbour list overflowed (raise maxNeighbours).
   void step(int steps);

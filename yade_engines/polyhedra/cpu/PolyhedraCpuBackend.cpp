@@ -96,6 +96,7 @@ SystemView HostData::view() {
   v.largeRadius = largeRadius;
   v.timeStep = timeStep;
   v.gravity = gravity;
+  v.damping = damping;
   v.skin = skin;
   v.featureTolerance = featureTolerance;
   v.recordOutput = true;

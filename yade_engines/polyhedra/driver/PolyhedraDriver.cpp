@@ -121,10 +121,13 @@ struct rcp_bed {
     std::vector<std::int32_t> triangles(3 * facetTriangles()), materials = materialOfTriangle;
     for (std::size_t k = 0; k < triangles.size(); ++k) triangles[k] = static_cast<std::int32_t>(k);
     std::vector<poly::Material> list = wallMaterials;
-    if (wallRollingFriction.size() > list.size())
+    // One value more than the walls' materials is the coupled surface's (rcp_set_rolling_friction).
+    if (wallRollingFriction.size() > list.size() + 1)
       throw std::invalid_argument("rcp_set_rolling_friction named " + std::to_string(wallRollingFriction.size()) +
-                                  " wall materials, rcp_set_walls gave " + std::to_string(list.size()));
-    for (std::size_t k = 0; k < wallRollingFriction.size(); ++k) list[k].rollingFriction = wallRollingFriction[k];
+                                  " wall materials, rcp_set_walls gave " + std::to_string(list.size()) +
+                                  " (and one more may be the coupled surface's)");
+    for (std::size_t k = 0; k < std::min(wallRollingFriction.size(), list.size()); ++k)
+      list[k].rollingFriction = wallRollingFriction[k];
     surfaceFirstTriangle = facetTriangles();
     if (withSurface) {
       const auto firstNode = static_cast<std::int32_t>(coordinates.size() / 3);
@@ -132,6 +135,7 @@ struct rcp_bed {
       for (std::int32_t node : surfaceConnectivity) triangles.push_back(firstNode + node);
       materials.insert(materials.end(), surfaceTriangles, static_cast<std::int32_t>(list.size()));
       list.push_back(surfaceMaterial);
+      if (wallRollingFriction.size() == list.size()) list.back().rollingFriction = wallRollingFriction.back();
     }
     if (list.size() > static_cast<std::size_t>(poly::maxWallMaterials))
       throw std::invalid_argument(std::to_string(list.size()) + " wall materials, at most " +
@@ -153,6 +157,7 @@ struct rcp_bed {
     initialize();
     system->setTimeStep(parameters.timeStep);
     system->setGravity(parameters.gravity);
+    system->setDamping(parameters.damping);
     if (moving) system->setSurfaceKinematics(nodes, velocities);
     system->step(steps);
     stepped = true;
@@ -488,6 +493,15 @@ int rcp_set_time_step(rcp_bed* bed, double timeStep) {
 }
 
 double rcp_time_step(rcp_bed* bed) { return bed->parameters.timeStep; }
+
+int rcp_set_damping(rcp_bed* bed, double damping) {
+  return guarded("rcp_set_damping", [&] {
+    if (!(damping >= 0.0 && damping < 1.0))
+      throw std::invalid_argument("the damping share must be in [0, 1), got " + std::to_string(damping));
+    bed->parameters.damping = damping;
+    return 0;
+  }, -1);
+}
 
 int rcp_set_wall_velocity(rcp_bed* bed, const int32_t* triangles, int count, const double* velocity) {
   return guarded("rcp_set_wall_velocity", [&] {

@@ -35,7 +35,8 @@ int rcp_add_stone(rcp_bed* bed, const double* vertices, int vertex_count, double
 int rcp_set_walls(rcp_bed* bed, const double* corners, int triangle_count, const int32_t* material_of_triangle,
                   const double* materials, int material_count);
 /* Bounded rolling friction (Irazábal 2017 §5.2.1): η_r of the stones' material and of the first wall_count wall
- * materials of rcp_set_walls (the others 0); a pair takes the larger of its two. The rolling torque acts on sphere
+ * materials of rcp_set_walls (the others 0), one value more being the coupled surface's (rcp_connect's
+ * surface_material); a pair takes the larger of its two. The rolling torque acts on sphere
  * stones only (one core vertex, the dilation its radius). Before the first rcp_add_stone. */
 int rcp_set_rolling_friction(rcp_bed* bed, double stones, const double* walls, int wall_count);
 /* Hands stones and walls to the system (done by the first step otherwise). */
@@ -44,6 +45,10 @@ int rcp_initialize(rcp_bed* bed);
 double rcp_critical_time_step(rcp_bed* bed, double normal_force, double impact_velocity);
 int rcp_set_time_step(rcp_bed* bed, double time_step);
 double rcp_time_step(rcp_bed* bed);
+/* Non-viscous damping of the stones' translation from the next batch on (YADE's NewtonIntegrator.damping): each force
+ * component loses this share [0, 1) while it accelerates its stone, gains it while it brakes it. For packings; 0 (the
+ * default) in a physical run. */
+int rcp_set_damping(rcp_bed* bed, double damping);
 /* Wall triangles moving rigidly with `velocity` (3) from the next batch or coupling window on (a plate). */
 int rcp_set_wall_velocity(rcp_bed* bed, const int32_t* triangles, int count, const double* velocity);
 /* Wall triangles whose corners move each with its own velocity (9 per triangle: corner 1, 2, 3), constant over the next

@@ -5,7 +5,6 @@
 # With `--checkpoint-every S` the driver saves a restart checkpoint with the FEM side every S s of simulated time (the
 # polyhedra system, the coupling and this script's time series); `--resume OUT` goes on from the newest one.
 import os
-import pickle
 import sys
 import time
 
@@ -84,10 +83,7 @@ for w in range(first, windows):
     figures = engine.figures()
     recorder.append(time=figures["time"], **sensors.record(window, w + 1), interface_work_dem=figures["interface_work_dem"],
                     interface_work_fem=figures["interface_work_fem"])
-    if engine.checkpoint_pending:
-        recorder.flush()
-        engine.complete_checkpoint([recorder.path], pickle.dumps({"windows_recorded": len(recorder)}))
-        print(f"checkpoint at t={figures['time']:.4f} s, window {w + 1}", flush=True)
+    polyhedra_driver.complete_pending_checkpoint(engine, recorder, w + 1)
     if (w + 1) % every == 0:
         print(f"t={figures['time']:.4f} s  window {w + 1}/{windows}  sleeper carried "
               f"{figures['total_force_z'] / 1e3:.2f} kN  {time.monotonic() - wall_start:.1f} s", flush=True)

@@ -9,7 +9,6 @@
 # With `--checkpoint-every S` the driver saves a restart checkpoint with the FEM side every S s of simulated time;
 # `--resume OUT` goes on from the newest one.
 import os
-import pickle
 import sys
 import time
 
@@ -195,10 +194,7 @@ for w in range(first, windows):
     force = [figures[f"total_force_{k}"] for k in "xyz"]
     recorder.append(time=figures["time"], interface_force=force, **state["bulk"],
                     interface_work_dem=figures["interface_work_dem"], interface_work_fem=figures["interface_work_fem"])
-    if engine.checkpoint_pending:
-        recorder.flush()
-        engine.complete_checkpoint([recorder.path], pickle.dumps({"windows_recorded": len(recorder), "state": state}))
-        print(f"checkpoint at t={figures['time']:.4f} s, window {w + 1}", flush=True)
+    polyhedra_driver.complete_pending_checkpoint(engine, recorder, w + 1, state=state)
     if (w + 1) % every == 0:
         b = state["bulk"]
         print(f"t={figures['time']:.4f} s  window {w + 1}/{windows}  hopper {b['hopper_mass']:.3f} kg  passed "

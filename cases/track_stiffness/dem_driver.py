@@ -6,7 +6,6 @@
 # With `--checkpoint-every S` the driver saves a restart checkpoint with the FEM side every S s of simulated time;
 # `--resume OUT` goes on from the newest one.
 import os
-import pickle
 import sys
 import time
 
@@ -56,10 +55,7 @@ for w in range(first, windows):
                     base_force=-float(stage.force("base")[2]), kinetic_energy=stage.kinetic_energy(),
                     nodal_forces=nodal, interface_work_dem=figures["interface_work_dem"],
                     interface_work_fem=figures["interface_work_fem"])
-    if engine.checkpoint_pending:
-        recorder.flush()
-        engine.complete_checkpoint([recorder.path], pickle.dumps({"windows_recorded": len(recorder)}))
-        print(f"checkpoint at t={figures['time']:.4f} s, window {w + 1}", flush=True)
+    polyhedra_driver.complete_pending_checkpoint(engine, recorder, w + 1)
     if (w + 1) % every == 0:
         last = recorder.last
         print(f"t={figures['time']:.4f} s  window {w + 1}/{windows}  interface Fz={last['interface_force'][2]:.0f} N  "

@@ -109,6 +109,17 @@ def window_recorder(bed, out, restart):
     return results.DemRecorder(out, resume_windows=saved["windows_recorded"]), first, saved
 
 
+def complete_pending_checkpoint(bed, recorder, window, **state):
+    """After a coupled window: completes the restart checkpoint the window ordered, if any, with the recorder's time
+    series file and {"windows_recorded": len(recorder), **state} (what window_recorder gives back on resume)."""
+    if not bed.checkpoint_pending:
+        return
+    import pickle
+    recorder.flush()
+    bed.complete_checkpoint([recorder.path], pickle.dumps({"windows_recorded": len(recorder), **state}))
+    print(f"checkpoint at t={bed.time:.4f} s, window {window}", flush=True)
+
+
 def _doubles(values, count=None):
     array = np.ascontiguousarray(values, dtype=np.float64).ravel()
     if count is not None and array.size != count:

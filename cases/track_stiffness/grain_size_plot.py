@@ -25,10 +25,13 @@ def points(paths):
         with open(path) as f:
             summary = json.load(f)
         p, m = summary["parameters"], summary["metrics"]
-        if summary["case"] != "track_stiffness" or p["wheel_load_N"] != 150000.0 or p["base_young"] != 0.03e9 or p["smoke"]:
-            continue  # other loads or bases: the README's other studies
+        other = p.get("wheel_load_N") != 150000.0 or p.get("base_young") != 0.03e9 or p["smoke"]
+        if summary["case"] != "track_stiffness" or other:
+            continue  # other cases, loads or bases: the README's other studies
+        # a record's folder names the run (h200_...: the GPU machine); this folder's summaries their file
+        folder = os.path.basename(os.path.dirname(path))
         found.append((p["size_scale"], m["track_stiffness_kN_per_mm"], p["sleepers"],
-                      os.path.basename(os.path.dirname(path)) or os.path.basename(path)))
+                      os.path.basename(path) if folder == "results" else folder))
     return found
 
 

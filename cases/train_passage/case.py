@@ -186,7 +186,8 @@ class TrainPassage(Case):
         momentum = np.asarray(monitor["momentumZ"])
         net = np.asarray(monitor["forceZ"]) - fem["weight"] - np.asarray(monitor["seatLoad"]) - applied
         steps = slice(1, None)
-        impulse = results.trapezoid(net[steps], t[steps]) - p["rayleigh_mass"] * results.trapezoid(momentum[steps], t[steps])
+        impulse = (results.trapezoid(net[steps], t[steps])
+                   - p["rayleigh_mass"] * results.trapezoid(momentum[steps], t[steps]))
         scale = results.trapezoid(fem["weight"] + np.asarray(monitor["seatLoad"])[steps] + applied[steps], t[steps])
         momentum_error = abs(impulse - (momentum[-1] - momentum[1])) / scale
 

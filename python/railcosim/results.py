@@ -7,7 +7,7 @@ import os
 
 import numpy as np
 
-# The trapezoidal rule under either name: NumPy 2 (the GPU machine's) has trapezoid only, Debian bookworm's 1.24 trapz.
+# The trapezoidal rule under either name: Debian bookworm's NumPy 1.24 has trapz only, the GPU machine's NumPy 2 no trapz.
 trapezoid = getattr(np, "trapezoid", None) or np.trapz
 
 

@@ -96,6 +96,20 @@ def pwave_time_step(radii, young, density):
     return float(np.min(radii)) / math.sqrt(young / density)
 
 
+def cached_bed(key, out, pack):
+    """(bed rows x, y, z, r; base z [m]; cache file) of the packing `key` (the parameters that define it): packed once
+    by pack() -> (bed, base_z) and kept in the bed cache (bedcache), written whole or not at all."""
+    cache = bedcache.path("track", key, fallback=os.path.join(out, "cache"))
+    with bedcache.exclusive(cache) as found:
+        if not found:
+            bed, base_z = pack()
+            partial = f"{cache}.{os.getpid()}.npz"
+            np.savez(partial, bed=bed, base_z=base_z)
+            os.replace(partial, cache)
+    with np.load(cache) as saved:
+        return saved["bed"], float(saved["base_z"]), cache
+
+
 def highest_under_sleepers(p, bed):
     """z [m] of the highest grain top under a sleeper's base, of a bed of rows (x, y, z, r): the packed bed is lifted
     by minus this, so that the track rests on it from the start."""
@@ -310,16 +324,7 @@ class TrackBed:
         half = {"x_symmetry": False} if half_track(p) else {}
         loose = {k: p[k] for k in ("loose_zone", "loose_zone_first", "loose_friction")} if loose_range(p) else {}
         key = {"procedure": PACKING_PROCEDURE, **{k: p[k] for k in self.PACKING_KEYS}, **layers, **half, **loose}
-        cache = bedcache.path("track", key, fallback=os.path.join(out, "cache"))
-        with bedcache.exclusive(cache) as found:
-            if not found:
-                bed, base_z = self._pack()
-                partial = f"{cache}.{os.getpid()}.npz"
-                np.savez(partial, bed=bed, base_z=base_z)
-                os.replace(partial, cache)  # whole or not at all
-        with np.load(cache) as saved:
-            bed, self.base_z = saved["bed"], float(saved["base_z"])
-        self.cache = cache
+        bed, self.base_z, self.cache = cached_bed(key, out, self._pack)
         self._scene(bed, self.base_z)
         self.bed = bed
 
@@ -415,7 +420,7 @@ class TrackBed:
             body.state.vel = (0, 0, -PLATE_SPEED * max(0.0, 1.0 - O.forces.f(plate)[2] / target))
             O.run(chunk, True)
         body.state.vel = (0, 0, 0)
-        level = body.state.pos[2]
+        level, pressed = body.state.pos[2], O.forces.f(plate)[2] / target
         O.bodies.erase(plate)
         O.run(max(1, int(0.5 * COMPACTION_HOLD_S / O.dt)), True)
         # The scene of the coupled run with the test's materials (friction, rolling friction, the ballast's stiffness,
@@ -429,7 +434,8 @@ class TrackBed:
         O.engines = self.engines() + [NewtonIntegrator(damping=0.0, gravity=(0, 0, -GRAVITY))]  # BROF needs none
         O.dt = p["dem_dt_safety"] * utils.PWaveTimeStep()
         O.run(max(1, int(REST_S / O.dt)), True)
-        print(f"bed packed: {len(self.spheres)} grains, plate level {level:.4f} m, kinetic energy at rest "
+        print(f"bed packed: {len(self.spheres)} grains, plate level {level:.4f} m (its force {pressed:.2f} of the "
+              f"pressure's at the end), kinetic energy at rest "
               f"{utils.kineticEnergy():.3g} J", flush=True)
         bed = np.array([[*O.bodies[i].state.pos, O.bodies[i].shape.radius] for i in self.spheres])
         lift = -highest_under_sleepers(p, bed)

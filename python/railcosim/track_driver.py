@@ -3,19 +3,22 @@ machine's path, where YADE cannot go). The same box, walls, materials, packing p
 track.TrackBed; the grains are spheres as one-point cores dilated by their radius, with the library's Hertz-Mindlin
 contacts and bounded rolling friction (Irazábal 2017 §5.2.1; docs/polyhedra-driver.md).
 
-Differences from TrackBed, all in the packing (the coupled run's contact law and scene are the same):
-the loose cloud is placed by random sequential addition here, by YADE's makeCloud there, both of the EN 13450 grading
-by mass at the same solid fraction (the diameters here log-interpolated within a band, linearly there); the numerical
-damping of the packing (track.PACKING_DAMPING, YADE's non-viscous damping) acts on the translation only here.
-The packed bed is cached apart from YADE's (the key holds the driver).
+Differences from TrackBed. In the packing: the loose cloud is placed by random sequential addition here, by YADE's
+makeCloud there, both of the EN 13450 grading by mass at the same solid fraction (the mass uniform in log d within a
+band here, the passing linear in d there); the numerical damping (track.PACKING_DAMPING, YADE's non-viscous damping)
+acts on the translation only; each stage is a new bed, so contacts start anew and the step is recomputed from the
+grains left (with friction 0 no contact carries a history); the walls' rolling friction acts while packing too, on
+frictionless grains that nothing turns. In both runs: the walls are finite (WALL_MARGIN beyond the box), and their
+forces (the plate's, the base's record) are means over a batch of steps or a window, YADE's the last step's.
+The packed bed is cached apart from YADE's (the key holds the driver, not the backend: a bed packed on the CPU serves
+a GPU run of the same parameters and the other way round).
 
 Used by cases/track_stiffness/bed.py (packed_bed: the preparation run) and dem_driver.py (coupled_scene).
 """
-import os
 
 import numpy as np
 
-from railcosim import bedcache, track
+from railcosim import track
 from railcosim.polyhedra_driver import PolyhedraBed
 
 PACKING_PROCEDURE = 1  # part of the cache key: raised whenever _pack changes
@@ -216,15 +219,7 @@ def packed_bed(p, out, log=print):
            **{k: p[k] for k in track.TrackBed.PACKING_KEYS}}
     if track.half_track(p):
         key["x_symmetry"] = False
-    path = bedcache.path("track", key, fallback=os.path.join(out, "cache"))
-    with bedcache.exclusive(path) as found:
-        if not found:
-            bed, base_z = _pack(p, log)
-            partial = f"{path}.{os.getpid()}.npz"
-            np.savez(partial, bed=bed, base_z=base_z)
-            os.replace(partial, path)  # whole or not at all
-    with np.load(path) as saved:
-        return saved["bed"], float(saved["base_z"]), path
+    return track.cached_bed(key, out, lambda: _pack(p, log))
 
 
 def coupled_scene(p, bed, base_z):

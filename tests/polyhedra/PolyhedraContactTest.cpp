@@ -1077,16 +1077,23 @@ BOOST_AUTO_TEST_CASE(non_viscous_damping_scales_gravity_as_the_closed_form) {
     system.step(steps);
     const double t = steps * dt, a = -g * (v0 < 0 ? 1.0 - lambda : 1.0 + lambda);
     BOOST_TEST_MESSAGE("v0 " << v0 << " m/s: v " << system.velocities()[2] << " m/s, closed form " << v0 + a * t);
-    BOOST_TEST(std::fabs(system.velocities()[2] - (v0 + a * t)) < 1e-9);              // rounding over 5000 steps
+    BOOST_TEST(std::fabs(system.velocities()[2] - (v0 + a * t)) < 1e-9); // rounding over 5000 steps
     BOOST_TEST(std::fabs(system.positions()[2] - (1.0 + v0 * t + 0.5 * a * t * t)) < 1e-9);
     system.setDamping(0.0);
     const double v1 = system.velocities()[2];
     system.step(1000);
-    BOOST_TEST(std::fabs(system.velocities()[2] - (v1 - g * 1000 * dt)) < 1e-9);   // undamped: g again
+    BOOST_TEST(std::fabs(system.velocities()[2] - (v1 - g * 1000 * dt)) < 1e-9); // undamped: g again
   }
+  const auto namesDamping = [](const std::exception& e) {
+    return std::string(e.what()).find("damping") != std::string::npos;
+  };
   Parameters bad;
   bad.damping = 1.0;
-  BOOST_CHECK_THROW(PolyhedraSystem{bad}, std::exception);
+  BOOST_CHECK_EXCEPTION(PolyhedraSystem{bad}, std::exception, namesDamping);
+  Parameters good;
+  good.backend = Backend::Cpu;
+  PolyhedraSystem system(good);
+  BOOST_CHECK_EXCEPTION(system.setDamping(-0.1), std::exception, namesDamping);
 }
 
 // Bounded rolling friction on a sphere stone (a one-vertex core): Irazábal 2017's BROF benchmarks against the

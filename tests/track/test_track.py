@@ -7,7 +7,7 @@ import unittest
 import numpy as np
 
 sys.path.insert(0, os.path.join(os.path.dirname(__file__), "..", "..", "python"))
-from railcosim import track  # noqa: E402
+from railcosim import results, track  # noqa: E402
 
 Q = 150e3          # N
 MODULUS = 17.6e6   # N/m^2, the default run's support modulus
@@ -20,7 +20,7 @@ class WinklerTest(unittest.TestCase):
         beyond 20/beta is below exp(-20); the trapezoid on 2e5 intervals is exact to 1e-8: tolerance 1e-6."""
         beta = (MODULUS / (4 * EI)) ** 0.25
         x = np.linspace(-20 / beta, 20 / beta, 200001)
-        reaction = np.trapz(MODULUS * track.winkler_deflection(x, Q, MODULUS, EI), x)
+        reaction = results.trapezoid(MODULUS * track.winkler_deflection(x, Q, MODULUS, EI), x)
         self.assertAlmostEqual(reaction / Q, 1.0, delta=1e-6)
 
     def test_beam_equation_away_from_the_load(self):
@@ -41,7 +41,7 @@ class WinklerTest(unittest.TestCase):
         period = 3.0
         x = np.linspace(0.0, period / 2, 20001)
         w = track.winkler_deflection(x, Q, MODULUS, EI, period=period)
-        self.assertAlmostEqual(np.trapz(MODULUS * w, x) / (Q / 2), 1.0, delta=1e-6)
+        self.assertAlmostEqual(results.trapezoid(MODULUS * w, x) / (Q / 2), 1.0, delta=1e-6)
         slope_end = (w[-1] - w[-2]) / (x[-1] - x[-2])
         self.assertLess(abs(slope_end) * period / w[0], 1e-3)
 
@@ -56,7 +56,7 @@ class WinklerTest(unittest.TestCase):
         loads = [(0.5, 84.4e3), (3.5, 84.4e3)]
         x = np.linspace(start, end, 20001)
         w = track.winkler_mirrored(x, loads, MODULUS, EI, start, end)
-        self.assertAlmostEqual(np.trapz(MODULUS * w, x) / (2 * 84.4e3), 1.0, delta=1e-6)
+        self.assertAlmostEqual(results.trapezoid(MODULUS * w, x) / (2 * 84.4e3), 1.0, delta=1e-6)
         h = x[1] - x[0]
         for slope in ((w[1] - w[0]) / h, (w[-1] - w[-2]) / h):
             self.assertLess(abs(slope) * (end - start) / np.max(w), 1e-3)

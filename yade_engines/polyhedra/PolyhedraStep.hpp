@@ -255,11 +255,10 @@ RAILCOSIM_HOST_DEVICE inline Vec3 halfKickTorque(const SystemView& s, int i, con
   return torque + kernels::boundedRollingTorque(omega, shape.inertia[0], 0.5 * s.timeStep, torque, budget);
 }
 
-// `rotation`: stone i's rotation state, s.rotation[i] or a staged copy of it (the GPU stages a block's states
-// through shared memory, since one thread per 240-byte state reads and writes them field by field).
 // Non-viscous damping of a stone's translation (Cundall; YADE's NewtonIntegrator.damping): each component of the force
 // (contacts and gravity) loses the share `damping` while it accelerates the stone along that axis and gains it while
-// it brakes it. It takes energy from a packing only; a physical run has damping = 0.
+// it brakes it, judged by the velocity at the start of each half kick (YADE: at the step's middle). It takes energy
+// from a packing only; a physical run has damping = 0.
 RAILCOSIM_HOST_DEVICE inline Vec3 dampedForce(Vec3 force, const Vec3& velocity, double damping) {
   if (damping == 0.0) return force;
   const auto share = [damping](double f, double v) {
@@ -272,6 +271,8 @@ RAILCOSIM_HOST_DEVICE inline Vec3 dampedForce(Vec3 force, const Vec3& velocity, 
   return force;
 }
 
+// `rotation`: stone i's rotation state, s.rotation[i] or a staged copy of it (the GPU stages a block's states
+// through shared memory, since one thread per 240-byte state reads and writes them field by field).
 RAILCOSIM_HOST_DEVICE inline void predictStone(const SystemView& s, int i, kernels::RotationState& rotation) {
   const ShapeData& shape = s.shapes[s.shape[i]];
   const double dt = s.timeStep;

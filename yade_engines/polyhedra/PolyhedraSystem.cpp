@@ -480,7 +480,8 @@ PolyhedraSystem::PolyhedraSystem(const Parameters& p) : implementation_(std::mak
   HostData& d = m.data;
   d.timeStep = p.timeStep;
   d.gravity = Vec3{p.gravity[0], p.gravity[1], p.gravity[2]};
-  if (!(p.damping >= 0.0 && p.damping < 1.0)) fail("PolyhedraSystem", "damping must be in [0, 1)");
+  if (!(p.damping >= 0.0 && p.damping < 1.0))
+    fail("PolyhedraSystem", "damping must be in [0, 1), got " + std::to_string(p.damping));
   d.damping = p.damping;
   d.featureTolerance = p.featureTolerance;
   d.rebuildInterval = p.rebuildInterval;

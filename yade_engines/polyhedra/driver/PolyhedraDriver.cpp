@@ -495,12 +495,15 @@ int rcp_set_time_step(rcp_bed* bed, double timeStep) {
 double rcp_time_step(rcp_bed* bed) { return bed->parameters.timeStep; }
 
 int rcp_set_damping(rcp_bed* bed, double damping) {
-  return guarded("rcp_set_damping", [&] {
-    if (!(damping >= 0.0 && damping < 1.0))
-      throw std::invalid_argument("the damping share must be in [0, 1), got " + std::to_string(damping));
-    bed->parameters.damping = damping;
-    return 0;
-  }, -1);
+  return guarded(
+      "rcp_set_damping",
+      [&] {
+        if (!(damping >= 0.0 && damping < 1.0))
+          throw std::invalid_argument("the damping share must be in [0, 1), got " + std::to_string(damping));
+        bed->parameters.damping = damping;
+        return 0;
+      },
+      -1);
 }
 
 int rcp_set_wall_velocity(rcp_bed* bed, const int32_t* triangles, int count, const double* velocity) {

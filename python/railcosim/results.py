@@ -7,7 +7,8 @@ import os
 
 import numpy as np
 
-# The trapezoidal rule under either name: Debian bookworm's NumPy 1.24 has trapz only, the GPU machine's NumPy 2 no trapz.
+# The trapezoidal rule under either name: Debian bookworm's NumPy 1.24 has trapz only, the GPU machine's NumPy 2
+# no trapz.
 trapezoid = getattr(np, "trapezoid", None) or np.trapz
 
 

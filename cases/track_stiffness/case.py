@@ -31,9 +31,8 @@ class TrackStiffness(Case):
         return [("bed", track.dem_script(p, "bed.py", os.path.join(out, "parameters.json"), out))]
 
     def dem_command(self, p, endpoint, out):
-        """dem.py (YADE) or dem_driver.py (dem_driver = "standalone": the polyhedra library)."""
-        script = "dem.py" if p["dem_driver"] == "yade" else "dem_driver.py"
-        return track.dem_script(p, script, os.path.join(out, "parameters.json"), endpoint, out)
+        """dem.py (YADE) or dem_driver.py (dem_driver = "standalone": the polyhedra library): track.dem_command."""
+        return track.dem_command(p, endpoint, out)
 
     def fem_command(self, p, endpoint, out):
         """track.edp coupled; with subgrade = "layers" the layers' top at the packed bed's base (bed.py's BED_INFO)."""

@@ -71,10 +71,9 @@ class TrainPassage(Case):
         return [("bed", track.dem_script(p, "bed.py", os.path.join(out, "parameters.json"), out))]
 
     def dem_command(self, p, endpoint, out):
-        """track_stiffness's dem.py (YADE) or dem_driver.py (dem_driver = "standalone"): the bed under the coupled
-        sleepers' bases; its record holds the interface's nodal forces, from which the sleepers' loads are summed."""
-        script = "dem.py" if p["dem_driver"] == "yade" else "dem_driver.py"
-        return track.dem_script(p, script, os.path.join(out, "parameters.json"), endpoint, out)
+        """track_stiffness's dem.py (YADE) or dem_driver.py (dem_driver = "standalone"), track.dem_command: the bed
+        under the coupled sleepers' bases; the sleepers' loads are summed from its interface's nodal forces."""
+        return track.dem_command(p, endpoint, out)
 
     def check_parameters(self, p):
         problems = track.check(p)

@@ -169,6 +169,14 @@ def dem_script(p, script, *arguments):
     return ["env", f"OMP_NUM_THREADS={p['dem_threads']}", sys.executable, path, *arguments]
 
 
+def dem_command(p, endpoint, out):
+    """The track cases' DEM participant: dem.py (YADE) or dem_driver.py (dem_driver = "standalone": the polyhedra
+    library), PARAMETERS.json ENDPOINT OUTDIR; its records hold the interface's nodal forces, the base's force and the
+    kinetic energy."""
+    script = "dem.py" if p.get("dem_driver", "yade") == "yade" else "dem_driver.py"
+    return dem_script(p, script, os.path.join(out, "parameters.json"), endpoint, out)
+
+
 def grading(size_scale):
     """(sieve sizes [m] times size_scale, cumulative passing, mean sphere volume [m^3]) of the EN 13450 grading, the
     mass fraction of each band taken at its mid diameter."""

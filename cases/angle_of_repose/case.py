@@ -2,11 +2,10 @@
 thesis' 40° for ballast; see README.md)."""
 import math
 import os
-import sys
 
 import numpy as np
 
-from railcosim import results
+from railcosim import results, solvers
 from railcosim.case import Case
 
 GRAVITY = 9.81
@@ -123,8 +122,8 @@ class AngleOfRepose(Case):
         library without YADE, the GPU machine's path) on this Python with dem_threads OpenMP threads."""
         if not self.on_library(p):
             return super().dem_command(p, endpoint, out)
-        return ["env", f"OMP_NUM_THREADS={p['dem_threads']}", sys.executable,
-                os.path.join(p["case_dir"], "polyhedra_dem.py"), os.path.join(out, "parameters.json"), endpoint, out]
+        return solvers.library_dem_command(p, os.path.join(p["case_dir"], "polyhedra_dem.py"),
+                                           os.path.join(out, "parameters.json"), endpoint, out)
 
     def postprocess(self, p, out):
         dem = results.read_json(os.path.join(out, "dem_info.json"))

@@ -55,25 +55,13 @@ if spheres:
     orientations = [(1.0, 0.0, 0.0, 0.0)] * len(sizes)
     inertia = None  # 2/5 m r^2 from the library's masses, once the stones are in (below)
 else:
-    library = ballast_clusters.loadShapeLibrary()
-    shapes = {s["name"]: s for s in library["shapes"]}
     try:
-        scales = {name: ballast_clusters.dilatedCoreScale(s["vertices"], s["triangles"], r) for name, s in shapes.items()}
+        drawn = ballast_clusters.sampleDilatedStones(ballast_clusters.loadShapeLibrary(), rng,
+                                                     p["ballast_mass_kg"] / density, r, density)
     except ValueError as error:
         raise SystemExit(f"polyhedra_dem.py: {error}")
-    target_volume = p["ballast_mass_kg"] / density
-    drawn, volume = [], 0.0
-    while volume < target_volume:
-        # one stone a call: sampleBallastStones stops once its (cluster's) volume passes the target, the hull's here
-        stone = ballast_clusters.sampleBallastStones(library, rng, 1e-12, level="coarse", density=density)[0]
-        drawn.append(stone)
-        volume += shapes[stone["shape"]]["volume"] * stone["sieveSize"] ** 3
-    sizes = np.array([s["sieveSize"] for s in drawn])
-    cores = [np.asarray(shapes[s["shape"]]["vertices"], float) * s["sieveSize"] * scales[s["shape"]] for s in drawn]
-    dilations = r * sizes
-    orientations = [ballast_clusters.quaternionFromRotation(s["rotation"]) for s in drawn]
-    inertia = np.array([density * np.asarray(shapes[s["shape"]]["principalInertia"]) * s["sieveSize"] ** 5
-                        for s in drawn])
+    sizes, cores, dilations = drawn["sizes"], drawn["cores"], drawn["dilations"]
+    orientations, inertia = drawn["orientations"], drawn["inertia"]
 reaches = np.array([np.linalg.norm(c, axis=1).max() + d for c, d in zip(cores, dilations)])
 centres, bin_top, _ = hopper.lattice(reaches, rng)
 

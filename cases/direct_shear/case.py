@@ -6,7 +6,7 @@ import os
 
 import numpy as np
 
-from railcosim import results
+from railcosim import results, solvers
 from railcosim.case import Case
 
 
@@ -86,7 +86,18 @@ class DirectShear(Case):
             problems.append(f"grading_sieves_mm={p['grading_sieves_mm']!r}: at least two increasing positive sizes")
         if len(passing) != len(sieves) or any(b < a for a, b in zip(passing, passing[1:])) or passing[-1] != 100:
             problems.append(f"grading_passing={p['grading_passing']!r}: one value per sieve, non-decreasing, ending at 100")
+        if p["dem_driver"] == "standalone" and p["friction_model"] != "constant":
+            problems.append("dem_driver = \"standalone\" (the polyhedra library) has constant friction only "
+                            "(friction_model = \"constant\")")
         return problems
+
+    def dem_command(self, p, endpoint, out):
+        """dem.py on YADE, or polyhedra_dem.py (dem_driver = "standalone": the polyhedra library without YADE, the
+        GPU machine's path) on this Python with dem_threads OpenMP threads."""
+        if p["dem_driver"] != "standalone":
+            return super().dem_command(p, endpoint, out)
+        return solvers.library_dem_command(p, os.path.join(p["case_dir"], "polyhedra_dem.py"),
+                                           os.path.join(out, "parameters.json"), endpoint, out)
 
     def postprocess(self, p, out):
         info = results.read_json(os.path.join(out, "dem_info.json"))
@@ -128,6 +139,12 @@ class DirectShear(Case):
             {"name": "lower vs upper horizontal force (sample balance)", "value": balance_error,
              "limit": p["shear_balance_tolerance"]},
         ]
+        if p["dem_driver"] == "standalone":
+            # The dilated polyhedra's contact law (Hertz on the dilation's curvature) holds while the cores are apart:
+            # the overlap stays below the dilations it may use, r_A + r_B (after the rest and at the shear's end); half of
+            # them leaves a margin for the overlaps between those two instants, which are not seen.
+            checks.append({"name": "largest overlap over the dilations (the cores apart)",
+                           "value": max(t["overlap_share"] for t, _ in tests), "limit": 0.5})
         if p["friction_model"] == "stress_dependent":
             # Every contact between stones against the thesis' closed form through Hertz's peak pressure; the law uses the
             # total normal force (elastic and viscous), which differs from the elastic one by the dashpot's share at rest.

@@ -17,23 +17,17 @@ dem = StandaloneDem()
 p = dem.parameters
 out = dem.out
 GRAVITY = 9.81
-sys.path.insert(0, os.path.join(os.environ["RAILCOSIM_ROOT"], "yade_engines", "clusters"))
+# YADE runs this file without its folder on the path
+sys.path[:0] = [os.path.join(os.environ["RAILCOSIM_ROOT"], "yade_engines", "clusters"), p["case_dir"]]
 import ballast_clusters  # noqa: E402
 import pack_ballast  # noqa: E402
+import shear_box  # noqa: E402
 
 wall_start = time.monotonic()
-stresses = [1e3 * float(s) for s in p["normal_stresses_kPa"].split(",")]
-sieves = np.array([float(s) for s in p["grading_sieves_mm"].split(",")]) * p["size_scale"]
-passing = np.array([float(s) for s in p["grading_passing"].split(",")])
+stresses, sieves, passing = shear_box.settings(p)
 
-# 1. Geometry (m). x: the shear, z: up; the box's inside is [0, L] x [0, B] x [0, H], split at z = H/2. Walls are
-#    thick boxes (thicker than the shear distance): as the lower half moves by u along x, the top of its end wall
-#    covers the gap it opens under the upper half (x in [0, u]), the bottom of the upper half's end wall the lower
-#    sample that passes under it (x in [L, L + u]).
-L, B, H = p["box_length"], p["box_width"], p["box_height"]
-split = 0.5 * H
-t = max(0.05, p["shear_distance"] + 0.01)
-solid_volume = L * B * H / (1.0 + p["void_ratio"])
+# 1. Geometry (m): shear_box.dimensions.
+L, B, H, split, t, solid_volume = shear_box.dimensions(p)
 
 # 2. Materials (Table 6.3). Deposition (the pre-calculation, §6.3.2): ballast with mu0, frictionless walls. Test:
 #    walls and plate mu = 0.6 (steel); ballast mu0, constant or stress-dependent between different stones (Table 6.4;
@@ -66,27 +60,6 @@ stones = ballast_clusters.sampleBallastStones(library, rng, solid_volume, level=
                                               density=p["ballast_density"], targetPassing=passing, sieves=sieves)
 stone_volume = sum(s["mass"] for s in stones) / p["ballast_density"]
 reaches = np.array([s["enclosingRadius"] for s in stones])
-
-
-def place(rng):
-    """Random sequential placement of the stones' enclosing spheres, largest first, in a column over the box (no
-    overlap): a loose cloud that settles in a short fall. Returns centres and the column's top."""
-    order = np.argsort(-reaches)
-    centres = np.zeros((len(stones), 3))
-    top = max(H, 2.2 * reaches.max())
-    for count, k in enumerate(order):
-        r = reaches[k]
-        for attempt in range(4000):
-            if attempt and attempt % 200 == 0:
-                top *= 1.05
-            c = np.array([rng.uniform(r, L - r), rng.uniform(r, B - r), rng.uniform(r, top - r)])
-            if count == 0 or np.all(np.linalg.norm(centres[order[:count]] - c, axis=1) >= reaches[order[:count]] + r):
-                centres[k] = c
-                break
-        else:
-            raise RuntimeError(f"direct_shear: cannot place stone {count} of {len(stones)} (reach {r:.3f} m) in a "
-                               f"{L} x {B} m box; size_scale {p['size_scale']} is too large for the box")
-    return centres, top
 
 
 # 4. The box: lower half (floor, end and side walls; moves along x), upper half (fixed), loading plate (free along z).
@@ -144,7 +117,7 @@ with bedcache.exclusive(cache) as found:
             fill_ballast, fill_wall, test_ballast, test_wall = materials()
             found = False
     if not found:
-        centres, column_top = place(rng)
+        centres, column_top = shear_box.place(p, reaches, rng)
         lower, upper = build_box(column_top + 0.05)
         clumps = [pack_ballast.addClusterStone(s, c, O.materials[fill_ballast]) for s, c in zip(stones, centres)]
         O.engines = engines(p["packing_damping"])

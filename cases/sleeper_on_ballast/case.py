@@ -79,7 +79,7 @@ class SleeperOnBallast(Case):
         path = os.path.join(p["case_dir"], script)
         if p["dem_driver"] == "yade":
             return [os.path.join(solvers.root(), "railcosim"), "yade", f"-j{p['dem_threads']}", path, *arguments]
-        return ["env", f"OMP_NUM_THREADS={p['dem_threads']}", sys.executable, path, *arguments]
+        return solvers.library_dem_command(p, path, *arguments)
 
     def preparation_runs(self, p, out):
         """The ballast bed (bed.py): prepared once per parameter set and kept; later runs reuse the file."""

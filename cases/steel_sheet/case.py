@@ -1,11 +1,10 @@
 """Case steel_sheet: the sheet, its reference run, the closed-form bounds and the post-processing (see README.md)."""
 import math
 import os
-import sys
 
 import numpy as np
 
-from railcosim import results
+from railcosim import results, solvers
 from railcosim.case import Case
 
 GRAVITY = 9.81
@@ -53,8 +52,8 @@ class SteelSheet(Case):
         path) on this Python with dem_threads OpenMP threads."""
         if p["dem_driver"] == "yade":
             return super().dem_command(p, endpoint, out)
-        return ["env", f"OMP_NUM_THREADS={p['dem_threads']}", sys.executable,
-                os.path.join(p["case_dir"], "dem_driver.py"), os.path.join(out, "parameters.json"), endpoint, out]
+        return solvers.library_dem_command(p, os.path.join(p["case_dir"], "dem_driver.py"),
+                                           os.path.join(out, "parameters.json"), endpoint, out)
 
     def fem_arguments(self, p):
         """The free span x = clamp_length..sheet_length as a P2 solid shell, one layer, graded towards the clamp (face 4,

@@ -131,6 +131,22 @@ def _pointer(array):
     return array.ctypes.data_as(_D) if array.dtype == np.float64 else array.ctypes.data_as(_I)
 
 
+def rectangle(origin, u, v):
+    """Two wall triangles of the rectangle origin + [0, 1] u + [0, 1] v, counter-clockwise seen from the side u x v
+    points to (the stones' side)."""
+    o, u, v = (np.asarray(a, float) for a in (origin, u, v))
+    return [[o, o + u, o + u + v], [o, o + u + v, o + v]]
+
+
+def assemble_walls(parts):
+    """(corners (n, 3, 3) for set_walls, {part: its triangles' indices}) of {part: list of triangles}."""
+    corners, indices = [], {}
+    for name, triangles in parts.items():
+        indices[name] = list(range(len(corners), len(corners) + len(triangles)))
+        corners += triangles
+    return np.array(corners, float), indices
+
+
 class PolyhedraBed:
     """One polyhedra system driven without YADE (see the module's docstring). The arguments are PolyhedraSystem's
     Parameters: max_neighbours counts a stone's partners plus the large bodies in its reach, large_body_ratio the

@@ -1,5 +1,6 @@
 """Solver commands of a case: FreeFEM runs (coupled participant, solver-only references) and the YADE participant."""
 import os
+import sys
 
 from railcosim import snapshots
 
@@ -74,3 +75,9 @@ def dem_command(p, endpoint, out):
     """The case's dem.py run by YADE with the railcosim engines: dem.py PARAMETERS.json ENDPOINT OUTDIR."""
     return [os.path.join(root(), "railcosim"), "yade", os.path.join(p["case_dir"], "dem.py"),
             os.path.join(out, "parameters.json"), endpoint, out]
+
+
+def library_dem_command(p, path, *arguments):
+    """A DEM script on the polyhedra library without YADE (a standalone driver, the GPU machine's path): this Python
+    with dem_threads OpenMP threads (the CPU backend's)."""
+    return ["env", f"OMP_NUM_THREADS={p['dem_threads']}", sys.executable, path, *arguments]

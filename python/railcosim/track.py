@@ -27,11 +27,10 @@ quarter without a loose zone).
 """
 import math
 import os
-import sys
 
 import numpy as np
 
-from railcosim import bedcache
+from railcosim import bedcache, solvers
 
 ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))  # the repository
 FEM_SCRIPT = "examples/track.edp"
@@ -166,7 +165,7 @@ def dem_script(p, script, *arguments):
     path = os.path.join(ROOT, "cases", "track_stiffness", script)
     if p.get("dem_driver", "yade") == "yade":
         return [os.path.join(ROOT, "railcosim"), "yade", path, *arguments]
-    return ["env", f"OMP_NUM_THREADS={p['dem_threads']}", sys.executable, path, *arguments]
+    return solvers.library_dem_command(p, path, *arguments)
 
 
 def dem_command(p, endpoint, out):

@@ -19,7 +19,7 @@ Used by cases/track_stiffness/bed.py (packed_bed: the preparation run) and dem_d
 import numpy as np
 
 from railcosim import track
-from railcosim.polyhedra_driver import PolyhedraBed
+from railcosim.polyhedra_driver import PolyhedraBed, assemble_walls, rectangle
 
 PACKING_PROCEDURE = 1  # part of the cache key: raised whenever _pack changes
 MAX_NEIGHBOURS = 64    # candidates a stone: a 22 mm grain among 63 mm ones has many (cases/angle_of_repose)
@@ -54,31 +54,20 @@ def materials(p):
     return material, rolling
 
 
-def _rectangle(origin, u, v):
-    """Two triangles of the rectangle origin + [0, 1] u + [0, 1] v, counter-clockwise seen from the side u x v points
-    to (the stones' side)."""
-    o, u, v = (np.asarray(a, float) for a in (origin, u, v))
-    return [[o, o + u, o + u + v], [o, o + u + v, o + v]]
-
-
 def walls(p, floor, top, plate=None):
     """(corners (n, 3, 3), {part: triangle indices}) of the box: the base at z = floor, the mirror walls at x =
     start_x, x = end_x and y = 0, the shoulder's wall at y = bed_width, up to z = top, and a plate facing down at z =
     plate (or none). Every wall reaches WALL_MARGIN beyond the box."""
     x0, x1, y1, m = track.start_x(p), track.end_x(p), track.bed_width(p), WALL_MARGIN
     lx, ly, lz = x1 - x0 + 2 * m, y1 + 2 * m, top - floor + 2 * m
-    parts = {"base": _rectangle((x0 - m, -m, floor), (lx, 0, 0), (0, ly, 0)),
-             "mirrors": (_rectangle((x0, -m, floor - m), (0, ly, 0), (0, 0, lz)) +      # x = start_x, facing +x
-                         _rectangle((x1, -m, floor - m), (0, 0, lz), (0, ly, 0)) +      # x = end_x, facing -x
-                         _rectangle((x0 - m, 0, floor - m), (0, 0, lz), (lx, 0, 0)) +   # y = 0, facing +y
-                         _rectangle((x0 - m, y1, floor - m), (lx, 0, 0), (0, 0, lz)))}  # y = bed_width, facing -y
+    parts = {"base": rectangle((x0 - m, -m, floor), (lx, 0, 0), (0, ly, 0)),
+             "mirrors": (rectangle((x0, -m, floor - m), (0, ly, 0), (0, 0, lz)) +      # x = start_x, facing +x
+                         rectangle((x1, -m, floor - m), (0, 0, lz), (0, ly, 0)) +      # x = end_x, facing -x
+                         rectangle((x0 - m, 0, floor - m), (0, 0, lz), (lx, 0, 0)) +   # y = 0, facing +y
+                         rectangle((x0 - m, y1, floor - m), (lx, 0, 0), (0, 0, lz)))}  # y = bed_width, facing -y
     if plate is not None:
-        parts["plate"] = _rectangle((x0 - m, -m, plate), (0, ly, 0), (lx, 0, 0))
-    corners, indices = [], {}
-    for name, triangles in parts.items():
-        indices[name] = list(range(len(corners), len(corners) + len(triangles)))
-        corners += triangles
-    return np.array(corners), indices
+        parts["plate"] = rectangle((x0 - m, -m, plate), (0, ly, 0), (lx, 0, 0))
+    return assemble_walls(parts)
 
 
 class Stage:

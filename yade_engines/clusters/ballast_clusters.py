@@ -593,6 +593,34 @@ def loadShapeLibrary(path=DEFAULT_LIBRARY):
     return library
 
 
+def sampleDilatedStones(library, rng, totalSolidVolume, relativeDilation, density=2700.0,
+                        targetPassing=DEFAULT_TARGET_PASSING, sieves=EN13450_SIEVES_MM):
+    """The library's stones as dilated polyhedra (the polyhedra library's particle), drawn as sampleBallastStones draws
+    clusters (shape, sieve size, turn; one call a stone, coarse level) until the hulls' solid volume reaches the target
+    [m^3]. Each is its hull at its sieve size, the core shrunk about the centroid (the origin of the principal axes)
+    and dilated by r_d = relativeDilation x size so that the dilated stone has the hull's volume (dilatedCoreScale:
+    Steiner's formula, exact). Returns a dict of: sizes (n) [m], cores (list of (k, 3) body-frame vertices) [m],
+    dilations (n) [m], orientations (n, 4) (w, x, y, z), inertia (n, 3) principal moments of the undilated hull at
+    `density` [kg m^2], reaches (n) [m] (the farthest core vertex plus the dilation)."""
+    shapes = {s["name"]: s for s in library["shapes"]}
+    scales = {name: dilatedCoreScale(s["vertices"], s["triangles"], relativeDilation) for name, s in shapes.items()}
+    drawn, volume = [], 0.0
+    while volume < totalSolidVolume:
+        # one stone a call: sampleBallastStones stops once its (cluster's) volume passes the target, the hull's here
+        stone = sampleBallastStones(library, rng, 1e-12, level="coarse", density=density, targetPassing=targetPassing,
+                                    sieves=sieves)[0]
+        drawn.append(stone)
+        volume += shapes[stone["shape"]]["volume"] * stone["sieveSize"] ** 3
+    sizes = np.array([s["sieveSize"] for s in drawn])
+    cores = [np.asarray(shapes[s["shape"]]["vertices"], float) * s["sieveSize"] * scales[s["shape"]] for s in drawn]
+    dilations = relativeDilation * sizes
+    return {"sizes": sizes, "cores": cores, "dilations": dilations,
+            "orientations": np.array([quaternionFromRotation(s["rotation"]) for s in drawn]),
+            "inertia": np.array([density * np.asarray(shapes[s["shape"]]["principalInertia"]) * s["sieveSize"] ** 5
+                                 for s in drawn]),
+            "reaches": np.array([np.linalg.norm(c, axis=1).max() + d for c, d in zip(cores, dilations)])}
+
+
 def sampleBallastStones(library, rng, totalSolidVolume, level="fine", density=2700.0,
                         targetPassing=DEFAULT_TARGET_PASSING, sieves=EN13450_SIEVES_MM):
     """Stones for a bed: draws (shape, sieve size, orientation) until the solid volume reaches the target; sizes follow

@@ -6,7 +6,8 @@
 #   e.g. ... OUTDIR --set stones=0 --set bed_width_m=1.0 --set cycles=100      (the seed's scene, README)
 # CASE=NAME runs another case of cases/ whose DEM side has a standalone driver (dem_driver = "standalone"), the same
 # way: CASE=steel_sheet (cases/steel_sheet/README.md, "On the GPU machine"); CASE=angle_of_repose with
-# --set particle_shape=polyhedron (cases/angle_of_repose/README.md, "Polyhedra"); CASE=track_stiffness and
+# --set particle_shape=polyhedron (cases/angle_of_repose/README.md, "Polyhedra"); CASE=direct_shear with
+# --set dem_driver=standalone (cases/direct_shear/README.md, "Polyhedra"); CASE=track_stiffness and
 # CASE=train_passage with --set fem_mesh=FILE, a fem/track.msh of a desk run of the same track (no gmsh there;
 # cases/track_stiffness/README.md, "The thesis's grading on the GPU machine").
 # Environment: RUNTIME_ARCHIVE (default build/device-runtime.tgz), RUNTIME_DIR (where it is unpacked, default a

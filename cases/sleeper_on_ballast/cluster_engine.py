@@ -19,6 +19,8 @@ from yade import *  # noqa: F401,F403  (O, utils, the engines and materials)
 from yade import utils
 from yade.minieigenHP import Quaternion, Vector3
 
+from railcosim.dem import run_steps
+
 import preparation as prep
 import yade_engine as ye  # YadeClock
 import scene as sc  # also puts the shape library (yade_engines/clusters) on the path
@@ -238,7 +240,7 @@ class ClusterStage(ye.YadeClock, prep.StageBase):
 
     def _batch(self):
         self.force_sum, self.force_steps = 0.0, 0
-        O.run(prep.SYNC_INTERVAL, True)
+        run_steps(prep.SYNC_INTERVAL)
         self.batch_force = self.force_sum / max(1, self.force_steps)
 
     def states(self):

@@ -12,6 +12,8 @@ from yade import *  # noqa: F401,F403  (O, utils, the engines and materials)
 from yade import utils
 from yade.minieigenHP import Quaternion, Vector3
 
+from railcosim.dem import run_steps
+
 import preparation as prep
 import scene as sc
 
@@ -133,7 +135,7 @@ class YadeStage(YadeClock, prep.StageBase):
         return self.engine.meanContacts
 
     def _batch(self):
-        O.run(prep.SYNC_INTERVAL, True)
+        run_steps(prep.SYNC_INTERVAL)
 
     def states(self):
         return states(self.ids)

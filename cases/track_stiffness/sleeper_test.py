@@ -21,6 +21,7 @@ import numpy as np
 
 from railcosim import parameters, track
 from railcosim.case import load_case
+from railcosim.dem import run_steps
 
 if "RAILCOSIM_ROOT" not in os.environ:
     sys.exit("sleeper_test.py: run it through the repository's launcher: ./railcosim yade "
@@ -132,7 +133,7 @@ def test_time():
 while test_time() < end_time:
     F = seat_load(test_time())
     O.forces.setPermF(boxes[0], Vector3(0, 0, -0.5 * F))  # the quarter's box is half a rail seat's sleeper
-    O.run(STEPS_PER_RECORD, True)
+    run_steps(STEPS_PER_RECORD)
     rows.append([test_time(), F] + [O.bodies[b].state.pos[2] - 0.5 * H for b in boxes] + [bed.base_force()])
     if rows[-1][0] < settle:
         at_rest = rows[-1][2]

@@ -12,7 +12,7 @@ import time
 import numpy as np
 
 from railcosim import bedcache
-from railcosim.dem import StandaloneDem
+from railcosim.dem import StandaloneDem, run_steps
 
 dem = StandaloneDem()
 p = dem.parameters
@@ -372,7 +372,7 @@ def settle(goals, tolerance, max_steps):
     remaining error or drift [Pa]."""
     history, taken = [stress()], 0
     while True:
-        O.run(p["check_steps"], True)
+        run_steps(p["check_steps"])
         taken += p["check_steps"]
         now = stress()
         history.append(now)
@@ -439,7 +439,7 @@ def confine_at(goal, ramp=True):
     servo.update(goals=[goal] * 3, goal_from=stress().trace() / 3.0, start_iter=O.iter, end_iter=O.iter + ramp)
     for k in range(10 if ramp else 0):
         servo["modulus"] = affine_modulus()
-        O.run(ramp // 10, True)
+        run_steps(ramp // 10)
     servo["goal_from"] = None
     taken = 0
     while True:  # the network stiffens as contacts form: its affine modulus again every quarter of the allowance
@@ -465,7 +465,7 @@ def probe(phase, levels, goal):
         servo["modulus"] = affine_modulus()
         servo.update(goals=[goal, goal, None], goal_from=None, strain_from=now, strain_to=target, start_iter=O.iter,
                      end_iter=O.iter + p["ramp_steps"])
-        O.run(p["ramp_steps"], True)
+        run_steps(p["ramp_steps"])
         tolerance = max(p["probe_tolerance"] * 600.0 * goal * abs(target - now), p["probe_tolerance_floor_Pa"])
         taken, residual = settle([goal, goal, None], tolerance, p["probe_max_steps"])
         rows.append(record_state(phase, p["ramp_steps"] + taken, residual))

@@ -15,6 +15,8 @@ import uuid
 
 import numpy as np
 
+from railcosim.dem import run_steps
+
 sys.path.insert(0, os.path.join(os.environ["RAILCOSIM_ROOT"], "yade_engines", "clusters"))
 import ballast_clusters  # noqa: E402
 import pack_ballast  # noqa: E402
@@ -86,7 +88,7 @@ check(coupling.subcycles == 10, f"{coupling.subcycles} DEM steps per window")
 O.run(10 * 2000, True)  # 0.4 s
 sums = {"force": Vector3.Zero, "mx": 0.0, "my": 0.0, "n": 0, "contacts": 0}
 for _ in range(300):
-    O.run(10, True)
+    run_steps(10)
     forces, positions = coupling.nodalForces, coupling.nodePositions
     sums["force"] += sum(forces, Vector3.Zero)
     sums["mx"] += sum(f[2] * x[0] for f, x in zip(forces, positions))

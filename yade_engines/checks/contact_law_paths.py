@@ -11,13 +11,14 @@
 #  2. the smooth granite sphere dropped on the flat at 0.5 m/s with restitution 0.5: rebound / approach = 0.5.
 # The polyhedra engine cannot prescribe a stone's motion: there the rough stone approaches freely and its loading
 # half-contact is compared with the virgin curve (force at every window's last evaluation, as in the cycle's peak).
-# Run: ./railcosim yade yade_engines/checks/contact_law_paths.py PATH/TO/railcosim_dummy_fem   (about 10 s)
+# Run: ./railcosim yade yade_engines/checks/contact_law_paths.py PATH/TO/railcosim_dummy_fem   (about 3 s)
 import math
 import os
 import subprocess
 import sys
 import uuid
 
+from railcosim.dem import run_steps
 from yade import O, utils
 
 dummy_fem = sys.argv[1]
@@ -270,7 +271,7 @@ def polyhedra_run(dt, subcycles, material_of, speed):
 fem, coupling, engine, stone = polyhedra_run(1e-8, 50, granite(True), CYCLE_SPEED)
 loading = []  # (overlap, normal force) at the last evaluation of each window while the stone still approaches
 for _ in range(2000):
-    O.run(50, True)
+    run_steps(50)
     contacts = engine.contacts()
     if contacts and O.bodies[stone].state.vel[2] < 0:
         loading.append((contacts[0]["overlap"], contacts[0]["force"].dot(contacts[0]["normal"])))
@@ -287,7 +288,7 @@ check(fem.returncode == 0, f"stand-in FEM exited cleanly (code {fem.returncode})
 fem, coupling, engine, stone = polyhedra_run(IMPACT_DT, 100, granite(False), IMPACT_SPEED)
 touched = False
 for _ in range(200):
-    O.run(100, True)
+    run_steps(100)
     touched = touched or len(engine.contacts()) > 0
     if touched and not engine.contacts():
         break

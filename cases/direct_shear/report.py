@@ -5,7 +5,6 @@ friction (shear stress and dilation against displacement, peak envelopes) and th
 
 DIR is a run's results folder (summary.json, dem_timeseries.h5, dem_info.json); figures go next to this file."""
 import argparse
-import json
 import math
 import os
 import sys
@@ -16,7 +15,7 @@ HERE = os.path.dirname(os.path.abspath(__file__))
 sys.path.insert(0, os.path.join(HERE, "..", "..", "python"))
 sys.path.insert(0, HERE)
 from railcosim import results  # noqa: E402
-from case import split_tests, mohr_coulomb, at  # noqa: E402
+from case import split_tests, at  # noqa: E402
 
 
 def load(folder):
@@ -104,7 +103,7 @@ def main():
         summary, tests = load(folder)
         test, s = tests[0]
         p = summary["parameters"]
-        tau5, tau10 = at(s, 0.005, "shear_stress"), at(s, 0.0099, "shear_stress")
+        tau5 = at(s, 0.005, "shear_stress")
         mean = float(np.mean(s["shear_stress"][s["shear_displacement"] >= 0.005]))
         print(f"| {p['shear_velocity']:g} | {p['dem_dt'] * 1e6:g} | {tau5 / 1e3:.1f} | {mean / 1e3:.1f} | "
               f"{summary['metrics']['peak_shear_stress_kPa'][0]:.1f} | {1e3 * s['dilation'][-1]:.2f} | "

@@ -12,7 +12,9 @@
 #   integrator, blocked in x, y and rotation);
 # - forces are means over each batch of steps (dem.py: samples_per_record samples a record);
 # - the library's numerical damping (YADE's non-viscous damping) acts on the stones' translation only;
-# - each phase with other materials (deposition, test) is a new bed: contacts start anew from the stones' states.
+# - each phase with other materials (deposition, test) is a new bed: contacts start anew from the stones' states;
+# - one step for deposition and test, polyhedron_dt (the thesis's 2.5 µs): 5 µs, below half the contacts' critical
+#   step at the impacts, ran past the neighbour lists once stones locked across the shear plane (README).
 # Run by `railcosim run` as: python3 polyhedra_dem.py PARAMETERS.json ENDPOINT OUTDIR (DEM-only: no endpoint used)
 import math
 import os
@@ -136,7 +138,7 @@ def highest_point(state):
 #    differ only in the test's settings.
 KEYS = ("box_length", "box_width", "box_height", "shear_distance", "grading_sieves_mm", "grading_passing", "size_scale",
         "void_ratio", "dilation_fraction", "polyhedron_young", "ballast_poisson", "ballast_density", "ballast_friction",
-        "restitution", "fill_dt", "fill_s", "rest_speed", "packing_damping", "seed")
+        "restitution", "polyhedron_dt", "fill_s", "rest_speed", "packing_damping", "seed")
 cache = bedcache.path("direct_shear", {"driver": "standalone", "procedure": SAMPLE_PROCEDURE, **{k: p[k] for k in KEYS}},
                       name="sample", fallback=os.path.join(out, "cache"))
 fill_this_run, backend = 0.0, None
@@ -145,7 +147,7 @@ with bedcache.exclusive(cache) as found:
         centres, column_top = shear_box.place(p, reaches, rng)
         top = column_top + 0.05
         zeros = np.zeros((count, 3))
-        bed, _ = new_bed(p["fill_dt"], fill_wall, (centres, stones["orientations"], zeros, zeros), top,
+        bed, _ = new_bed(p["polyhedron_dt"], fill_wall, (centres, stones["orientations"], zeros, zeros), top,
                          damping=p["packing_damping"])
         backend = bed.backend
         critical = check_step(bed, math.sqrt(2.0 * GRAVITY * column_top), "deposition")
@@ -188,7 +190,7 @@ for sigma in stresses:
     area = L * B
     load = sigma * area  # the plate's weight and the added force: sigma_n over the whole box
     z0 = highest_point(sample)
-    bed, parts = new_bed(p["dem_dt"], test_wall, sample, max(top, z0 + 0.05), plate_z=z0 + PLATE_CLEARANCE,
+    bed, parts = new_bed(p["polyhedron_dt"], test_wall, sample, max(top, z0 + 0.05), plate_z=z0 + PLATE_CLEARANCE,
                          damping=p["packing_damping"])
     backend = bed.backend
     critical = check_step(bed, p["approach_velocity"], "test")
@@ -267,7 +269,7 @@ for sigma in stresses:
                   "overlap_share": max(overlap_rest, overlap_share(bed))})
     bed = None  # the next stress makes its own
 
-info = {"dt": p["dem_dt"], "stones": count, "spheres": 0, "solid_volume_m3": stone_volume,
+info = {"dt": p["polyhedron_dt"], "stones": count, "spheres": 0, "solid_volume_m3": stone_volume,
         "target_solid_volume_m3": solid_volume, "sieves_mm": list(sieves), "tests": tests,
         "fill_wall_time_s": fill_wall_time, "fill_this_run_s": fill_this_run,
         "total_wall_time_s": time.monotonic() - wall_start, "packed_sample": cache, "particles": "polyhedra",

@@ -135,14 +135,15 @@ class DirectShear(Case):
             # for the records' sampling of a rattling contact set.
             {"name": "plate contact force vs applied load", "value": plate_error, "limit": p["plate_load_tolerance"]},
             # Newton's second law for the stones along x, with their momentum change; 5 % leaves room for the records'
-            # sampling of the rattling wall forces.
+            # sampling of the rattling wall forces. The polyhedra library's forces are exact means over equal records,
+            # so there the balance holds to rounding: 1e-3 catches a lost force or a wrong sign.
             {"name": "lower vs upper horizontal force (sample balance)", "value": balance_error,
-             "limit": p["shear_balance_tolerance"]},
+             "limit": 1e-3 if p["dem_driver"] == "standalone" else p["shear_balance_tolerance"]},
         ]
         if p["dem_driver"] == "standalone":
             # The dilated polyhedra's contact law (Hertz on the dilation's curvature) holds while the cores are apart:
-            # the overlap stays below the dilations it may use, r_A + r_B (after the rest and at the shear's end); half of
-            # them leaves a margin for the overlaps between those two instants, which are not seen.
+            # the overlap stays below the dilations it may use, r_A + r_B (after the rest and at each record); half
+            # of them leaves a margin for the overlaps between records, which are not seen.
             checks.append({"name": "largest overlap over the dilations (the cores apart)",
                            "value": max(t["overlap_share"] for t, _ in tests), "limit": 0.5})
         if p["friction_model"] == "stress_dependent":

@@ -1,7 +1,7 @@
-# DEM participant of the direct shear case on the polyhedra library through its C interface (railcosim.polyhedra_driver),
-# without YADE (dem_driver = "standalone"): the GPU machine's path, where the laboratory's stone sizes fit. The test is
-# dem.py's: the same box, grading, void ratio, materials, deposition, load, rest and shear, the same records and
-# dem_info.json, so that case.py post-processes both alike. What differs:
+# DEM participant of the direct shear case on the polyhedra library through its C interface
+# (railcosim.polyhedra_driver), without YADE (dem_driver = "standalone"): the GPU machine's path, where the
+# laboratory's stone sizes fit. The test is dem.py's: the same box, grading, void ratio, materials, deposition, load,
+# rest and shear, the same records and dem_info.json, so that case.py post-processes both alike. What differs:
 # - the stones are the shape library's hulls as dilated polyhedra (ballast_clusters.sampleDilatedStones: core shrunk,
 #   dilated by dilation_fraction x sieve size, the hull's volume kept), drawn as the clusters are (shape, sieve size,
 #   turn) from the same seed; the solid volume of the void ratio is the hulls'. Hertz contacts of the dilation's
@@ -38,7 +38,7 @@ PLATE_CHUNK = 10        # steps between the plate's velocity updates: 50 µs at 
 PLATE_CLEARANCE = 1e-3  # m between the plate's edges and the walls (dem.py's)
 MAX_NEIGHBOURS = 64     # candidates a stone: a small stone among large ones has many (cases/angle_of_repose)
 MAX_WALL_NEIGHBOURS = 16  # triangles a stone may touch at once: in a corner, floor, two walls and a ledge, two each
-SAMPLE_PROCEDURE = 1    # part of the sample's cache key: raised whenever the deposition changes
+SAMPLE_PROCEDURE = 2    # part of the sample's cache key: raised whenever the deposition changes
 
 p, _, out = dem_arguments.participant_arguments()
 wall_start = time.monotonic()
@@ -139,7 +139,8 @@ def highest_point(state):
 KEYS = ("box_length", "box_width", "box_height", "shear_distance", "grading_sieves_mm", "grading_passing", "size_scale",
         "void_ratio", "dilation_fraction", "polyhedron_young", "ballast_poisson", "ballast_density", "ballast_friction",
         "restitution", "polyhedron_dt", "fill_s", "rest_speed", "packing_damping", "seed")
-cache = bedcache.path("direct_shear", {"driver": "standalone", "procedure": SAMPLE_PROCEDURE, **{k: p[k] for k in KEYS}},
+cache = bedcache.path("direct_shear",
+                      {"driver": "standalone", "procedure": SAMPLE_PROCEDURE, **{k: p[k] for k in KEYS}},
                       name="sample", fallback=os.path.join(out, "cache"))
 fill_this_run, backend = 0.0, None
 with bedcache.exclusive(cache) as found:
@@ -155,26 +156,33 @@ with bedcache.exclusive(cache) as found:
               f"{critical:.3g} s); {backend[0]} ({backend[1]})", flush=True)
         start = time.monotonic()
         chunk = max(1, int(round(0.05 / bed.dt)))
-        while bed.time < p["fill_s"]:
+        while bed.time < p["fill_s"] - 0.5 * chunk * bed.dt:
             bed.step(chunk)
             fastest = float(np.max(np.linalg.norm(bed.states()[2], axis=1)))
             if fastest < p["rest_speed"]:
                 break
+        if fastest >= p["rest_speed"]:
+            print(f"deposition: WARNING: fill_s = {p['fill_s']:g} s ended with a stone at {fastest:.3f} m/s, above "
+                  f"rest_speed; the rest under the plate settles it", flush=True)
         fill_this_run = time.monotonic() - start
         state = bed.states()
         print(f"deposition: {bed.time:.2f} s simulated, fastest stone {fastest:.3f} m/s, {fill_this_run:.0f} s",
               flush=True)
         partial = f"{cache}.{os.getpid()}.npz"
         np.savez(partial, positions=state[0], orientations=state[1], velocities=state[2], spins=state[3],
-                 fill_wall_time_s=fill_this_run, column_top=top)
+                 fill_wall_time_s=fill_this_run, column_top=top, sizes=stones["sizes"], fastest=fastest,
+                 backend=backend[0])
         os.replace(partial, cache)
         bed = None
 with np.load(cache) as saved:
     sample = tuple(saved[k] for k in ("positions", "orientations", "velocities", "spins"))
     fill_wall_time, top = float(saved["fill_wall_time_s"]), float(saved["column_top"])
-if len(sample[0]) != count:
-    raise SystemExit(f"polyhedra_dem.py: the cached sample {cache} holds {len(sample[0])} stones, the draw {count}: "
-                     f"remove it")
+    fill_fastest, fill_backend = float(saved["fastest"]), str(saved["backend"])
+    cached_sizes = saved["sizes"]
+# The cores come from the draw, the poses from the cache: a changed shape library or draw must not pair them wrongly.
+if len(cached_sizes) != count or not np.array_equal(cached_sizes, stones["sizes"]):
+    raise SystemExit(f"polyhedra_dem.py: the cached sample {cache} was packed from another draw of stones "
+                     f"({len(cached_sizes)} stones, this draw {count}): remove it")
 print(f"{count} stones as polyhedra (sieve {sieves[0]:.1f}-{sieves[-1]:.1f} mm), solid volume {solid_volume:.5f} m3; "
       f"sample {cache}", flush=True)
 
@@ -199,13 +207,16 @@ for sigma in stresses:
 
     def advance(steps, free=True):
         """`steps` steps in chunks of PLATE_CHUNK, the plate free (its velocity integrated) or at its set velocity:
-        the mean forces of the ballast on the walls over them {part: (3)} and the plate's mean height."""
-        done, sums, height = 0, {name: np.zeros(3) for name in parts}, 0.0
+        the mean forces of the ballast on the walls over them {part: (3)}."""
+        done, sums = 0, {name: np.zeros(3) for name in parts}
         while done < steps:
             n = min(PLATE_CHUNK, steps - done)
             bed.set_wall_velocity(parts["plate"], (0.0, 0.0, plate["v"]))
-            bed.step(n)
-            height += n * (plate["z"] + 0.5 * plate["v"] * n * bed.dt)
+            try:
+                bed.step(n)
+            except polyhedra_driver.DriverError as error:
+                raise SystemExit(f"polyhedra_dem.py: at t = {bed.time:.4f} s under {sigma / 1e3:g} kPa: {error}. "
+                                 f"A stone moved too far in a step: lower polyhedron_dt ({bed.dt:g} s)") from None
             plate["z"] += plate["v"] * n * bed.dt
             forces = {name: bed.wall_force(triangles) for name, triangles in parts.items()}
             for name in parts:
@@ -217,10 +228,10 @@ for sigma in stresses:
             if free:
                 plate["v"] += (forces["plate"][2] - load) / p["plate_mass"] * n * bed.dt
             done += n
-        return {name: s / steps for name, s in sums.items()}, height / steps
+        return {name: s / steps for name, s in sums.items()}
 
     start = time.monotonic()
-    while advance(PLATE_CHUNK, free=False)[0]["plate"][2] < load:
+    while advance(PLATE_CHUNK, free=False)["plate"][2] < load:
         if plate["z"] < 0.25 * H:
             raise SystemExit("polyhedra_dem.py: the plate went down to a quarter of the box without meeting the sample")
     plate["v"] = 0.0
@@ -237,14 +248,18 @@ for sigma in stresses:
     momentum_start = float(np.sum(masses * bed.states()[2][:, 0]))
     bed.set_wall_velocity(parts["lower"], (v, 0.0, 0.0))
     t0 = bed.time
-    steps = int(round(p["shear_distance"] / (v * bed.dt)))
-    per_record = max(1, int(round(p["record_every_m"] / (v * bed.dt))))
+    # Records of equal length (case.py takes plain means over them): the shear ends within a step of shear_distance.
+    record_count = max(1, int(round(p["shear_distance"] / p["record_every_m"])))
+    per_record = max(1, int(round(p["shear_distance"] / (v * bed.dt * record_count))))
+    steps = per_record * record_count
+    overlap = overlap_rest
     first, done, last_print = recorder.windows, 0, time.monotonic()
     start = time.monotonic()
     while done < steps:
         n = min(per_record, steps - done)
-        forces, _ = advance(n)
+        forces = advance(n)
         done += n
+        overlap = max(overlap, overlap_share(bed))
         positions, q, velocities, spins, _ = bed.states()
         u = v * (bed.time - t0)
         contact_area = B * (L - u)  # Irazábal eqs. 6.1-6.2
@@ -266,10 +281,12 @@ for sigma in stresses:
                   "records": recorder.windows - first, "sample_height_m": h0, "void_ratio": void_ratio,
                   "rest_wall_time_s": rest_wall, "shear_wall_time_s": time.monotonic() - start, "shear_steps": steps,
                   "spheres": 0, "friction_check": None,
-                  "overlap_share": max(overlap_rest, overlap_share(bed))})
+                  "overlap_share": overlap})
     bed = None  # the next stress makes its own
 
-info = {"dt": p["polyhedron_dt"], "stones": count, "spheres": 0, "solid_volume_m3": stone_volume,
+info = {"deposition_at_rest": fill_fastest < p["rest_speed"], "deposition_fastest_m_s": fill_fastest,
+        "deposition_backend": fill_backend, "dt": p["polyhedron_dt"], "stones": count, "spheres": 0,
+        "solid_volume_m3": stone_volume,
         "target_solid_volume_m3": solid_volume, "sieves_mm": list(sieves), "tests": tests,
         "fill_wall_time_s": fill_wall_time, "fill_this_run_s": fill_this_run,
         "total_wall_time_s": time.monotonic() - wall_start, "packed_sample": cache, "particles": "polyhedra",

@@ -8,7 +8,6 @@ the laboratory-size runs. Prints one table row per run and the means per size.
 Usage: /usr/bin/python3 cases/direct_shear/polyhedra_plot.py [RECORDS] [OUT.png]
 (default: benchmarks/results/direct_shear_gpu/h200_2026-11-30 and cases/direct_shear/result_polyhedra_size.png)
 """
-import json
 import os
 import sys
 
@@ -45,8 +44,8 @@ def runs(records):
 
 
 def table(found):
-    print("| size_scale, seed | stones | void ratio under 27 / 51 / 75 kPa | peak τ [kPa] | at [mm] | τ(20 mm) [kPa] | "
-          "plate rise at 37 mm [mm] | φ, c | checks: plate, balance, overlap | wall [s] |")
+    print("| size_scale, seed | stones | void ratio under 27 / 51 / 75 kPa | peak τ [kPa] | at [mm] | "
+          "τ(20 mm) [kPa] | plate rise at 37 mm [mm] | φ, c | checks: plate, balance, overlap | wall [s] |")
     print("|---|---|---|---|---|---|---|---|---|---|")
     f = lambda values, digits=1: " / ".join(f"{v:.{digits}f}" for v in values)  # noqa: E731
     for scale, seed, s, _ in found:
@@ -57,8 +56,8 @@ def table(found):
               f"{m['peak_friction_angle_deg']:.1f}°, {m['mohr_coulomb_cohesion_kPa']:.1f} kPa | {checks} | "
               f"{m['dem_wall_time_s']:.0f} |")
     print()
-    print("| size_scale | packings | τ(20 mm) mean ± standard deviation at 27 / 51 / 75 kPa [kPa] | peak τ mean [kPa] | "
-          "void ratio mean |")
+    print("| size_scale | packings | τ(20 mm) mean ± standard deviation at 27 / 51 / 75 kPa [kPa] | "
+          "peak τ mean [kPa] | void ratio mean |")
     print("|---|---|---|---|---|")
     for scale in sorted({r[0] for r in found}, reverse=True):
         group = [r[2]["metrics"] for r in found if r[0] == scale]
@@ -95,7 +94,7 @@ def plot(found, path):
             continue
         for test, s in tests:
             sigma = test["normal_stress_Pa"] / 1e3
-            style = "-" if seed == 1 else "--"
+            style = {1: "-", 2: "--"}.get(seed, ":")
             a2.plot(1e3 * s["shear_displacement"], s["shear_stress"] / 1e3, style, color=colours[sigma],
                     label=f"σ_n = {sigma:g} kPa, packing {seed}")
             a3.plot(1e3 * s["shear_displacement"], 1e3 * s["dilation"], style, color=colours[sigma], alpha=0.35)
@@ -112,6 +111,8 @@ def plot(found, path):
 
 def main():
     records = sys.argv[1] if len(sys.argv) > 1 else RECORDS
+    if not os.path.isdir(records):
+        raise SystemExit(f"polyhedra_plot.py: {records} is not a folder of run folders (usage: [RECORDS] [OUT.png])")
     path = sys.argv[2] if len(sys.argv) > 2 else os.path.join(HERE, "result_polyhedra_size.png")
     found = runs(records)
     if not found:

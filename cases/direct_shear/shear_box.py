@@ -1,5 +1,6 @@
 """What both DEM drivers of the direct shear case share (YADE-free): the test's settings from the parameters, the
-box's dimensions and the loose column the stones are placed in before they fall into the box (Irazábal 2017 §6.3.2)."""
+box's dimensions and the loose column the stones are placed in before they fall into the box (Irazábal 2017
+§6.3.2)."""
 import numpy as np
 
 

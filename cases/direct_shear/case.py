@@ -146,6 +146,9 @@ class DirectShear(Case):
             # of them leaves a margin for the overlaps between records, which are not seen.
             checks.append({"name": "largest overlap over the dilations (the cores apart)",
                            "value": max(t["overlap_share"] for t, _ in tests), "limit": 0.5})
+            # Every step in between: the library counts each contact evaluation whose cores intersected.
+            checks.append({"name": "contact evaluations with intersecting cores (the library's count)",
+                           "value": sum(t.get("core_overlaps", 0) for t, _ in tests), "limit": 0})
         if p["friction_model"] == "stress_dependent":
             # Every contact between stones against the thesis' closed form through Hertz's peak pressure; the law uses the
             # total normal force (elastic and viscous), which differs from the elastic one by the dashpot's share at rest.
@@ -164,6 +167,9 @@ class DirectShear(Case):
                    "shear_wall_time_s": [t["shear_wall_time_s"] for t, _ in tests],
                    "fill_wall_time_s": info["fill_wall_time_s"], "dem_wall_time_s": info["total_wall_time_s"],
                    "plate_load_error": plate_error, "shear_balance_error": balance_error}
+        if p["dem_driver"] == "standalone":
+            # Rebuilds after which a stone had moved more than half the skin: contacts may have been missed (a warning)
+            metrics["dangerous_rebuilds"] = [t.get("dangerous_rebuilds", 0) for t, _ in tests]
         if p["friction_model"] == "stress_dependent":
             metrics["friction_check"] = [t["friction_check"] for t, _ in tests]
         metrics = {k: (None if isinstance(v, float) and not math.isfinite(v) else v) for k, v in metrics.items()}

@@ -281,7 +281,7 @@ for sigma in stresses:
                   "records": recorder.windows - first, "sample_height_m": h0, "void_ratio": void_ratio,
                   "rest_wall_time_s": rest_wall, "shear_wall_time_s": time.monotonic() - start, "shear_steps": steps,
                   "spheres": 0, "friction_check": None,
-                  "overlap_share": overlap})
+                  "overlap_share": overlap, **bed.step_counters})
     bed = None  # the next stress makes its own
 
 info = {"deposition_at_rest": fill_fastest < p["rest_speed"], "deposition_fastest_m_s": fill_fastest,

@@ -64,7 +64,8 @@ def _library():
             "rcp_time_step": (d, [p]), "rcp_set_damping": (i, [p, d]), "rcp_set_wall_velocity": (i, [p, _I, i, _D]),
             "rcp_set_wall_node_velocities": (i, [p, _I, i, _D]), "rcp_step": (i, [p, i]),
             "rcp_wall_force": (i, [p, _I, i, _D]), "rcp_time": (d, [p]), "rcp_stone_count": (i, [p]),
-            "rcp_templates": (i, [p]), "rcp_mean_contacts": (d, [p]), "rcp_backend": (i, [p, s, i]),
+            "rcp_templates": (i, [p]), "rcp_mean_contacts": (d, [p]),
+            "rcp_step_counters": (i, [p, ctypes.POINTER(ctypes.c_int64)]), "rcp_backend": (i, [p, s, i]),
             "rcp_states": (i, [p, _I, i, _D, _D, _D, _D, _D]), "rcp_contact_count": (i, [p]),
             "rcp_contact_count_of": (i, [p, _I, i]),
             "rcp_contacts": (i, [p, _I, _I, _I, _D, _D, _D, _D]),
@@ -228,6 +229,15 @@ class PolyhedraBed:
     def mean_contacts(self):
         """Mean active contacts (stone-stone + stone-wall) over the last batch."""
         return self._lib.rcp_mean_contacts(self._handle)
+
+    @property
+    def step_counters(self):
+        """{"core_overlaps": contact evaluations whose cores intersected (the dilated contact law no longer holds
+        there), "dangerous_rebuilds": neighbour-list rebuilds after which a stone had moved more than half the skin
+        (contacts may have been missed)}, since the bed was made."""
+        counters = (ctypes.c_int64 * 2)()
+        self._check(self._lib.rcp_step_counters(self._handle, counters))
+        return {"core_overlaps": int(counters[0]), "dangerous_rebuilds": int(counters[1])}
 
     @property
     def stone_count(self):

@@ -74,6 +74,9 @@ struct rcp_bed {
   bool initialized = false, stepped = false;
   double time = 0.0;         // advanced step by step, as a YADE scene's clock
   double meanContacts = 0.0; // of the last batch
+  // Since the bed was made (not part of a checkpoint): evaluations whose cores intersected, and rebuilds after which a
+  // stone had moved more than half the skin (StepStatistics), for a script's checks.
+  std::int64_t coreOverlapFallbacks = 0, dangerousRebuilds = 0;
   // Walls: each triangle's three corners as nodes of their own, then the coupled surface's nodes. givenFacetNodes: as
   // rcp_set_walls gave them (a resumed run's script builds its walls so again; facetNodes have moved since).
   std::vector<double> facetNodes, facetNodeVelocities, givenFacetNodes;
@@ -163,6 +166,8 @@ struct rcp_bed {
     stepped = true;
     for (int k = 0; k < steps; ++k) time += parameters.timeStep;
     meanContacts = system->lastStatistics().meanActiveContacts;
+    coreOverlapFallbacks += system->lastStatistics().coreOverlapFallbacks;
+    dangerousRebuilds += system->lastStatistics().dangerousRebuilds;
   }
 
   // One pass over the current window (FemCouplingEngine::advancePolyhedraWindow and the exchange after it).
@@ -544,6 +549,14 @@ double rcp_time(rcp_bed* bed) { return bed->time; }
 int rcp_stone_count(rcp_bed* bed) { return static_cast<int>(bed->system->stoneCount()); }
 int rcp_templates(rcp_bed* bed) { return bed->frames.templates(); }
 double rcp_mean_contacts(rcp_bed* bed) { return bed->meanContacts; }
+
+int rcp_step_counters(rcp_bed* bed, int64_t* counters) {
+  return guarded("rcp_step_counters", [&] {
+    counters[0] = bed->coreOverlapFallbacks;
+    counters[1] = bed->dangerousRebuilds;
+    return 0;
+  }, -1);
+}
 
 int rcp_backend(rcp_bed* bed, char* reason, int size) {
   return guarded("rcp_backend", [&] {

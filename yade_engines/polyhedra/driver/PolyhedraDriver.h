@@ -63,6 +63,10 @@ double rcp_time(rcp_bed* bed);
 int rcp_stone_count(rcp_bed* bed);
 int rcp_templates(rcp_bed* bed);
 double rcp_mean_contacts(rcp_bed* bed);
+/* Since the bed was made: contact evaluations whose cores intersected (the dilated contact law's fallback), and
+ * neighbour-list rebuilds after which a stone had moved more than half the skin (contacts may have been missed), into
+ * counters (2). */
+int rcp_step_counters(rcp_bed* bed, int64_t* counters);
 /* 0: cpu, 1: cuda, and why it runs (backend_reason, up to `size` bytes). */
 int rcp_backend(rcp_bed* bed, char* reason, int size);
 /* Body-frame states (3, 4, 3, 3 per stone) and masses (1 per stone) of the stones `indices` (count of them: only

@@ -33,7 +33,7 @@ from railcosim import dem as dem_arguments  # noqa: E402  (YADE-free: the partic
 from railcosim.polyhedra_driver import assemble_walls, rectangle  # noqa: E402
 
 GRAVITY = 9.81
-PLATE_CHUNK = 10        # steps between the plate's velocity updates: 50 µs at 5 µs, against the plate's period on the
+PLATE_CHUNK = 10        # steps between the plate's velocity updates: 25 µs at 2.5 µs, against the plate's period on the
                         # sample (2 pi sqrt(m/k), k ~ E_sample A / h ~ 2e7 N/m: about 10 ms)
 PLATE_CLEARANCE = 1e-3  # m between the plate's edges and the walls (dem.py's)
 MAX_NEIGHBOURS = 64     # candidates a stone: a small stone among large ones has many (cases/angle_of_repose)

@@ -145,7 +145,10 @@ cache = bedcache.path("direct_shear",
 fill_this_run, backend = 0.0, None
 with bedcache.exclusive(cache) as found:
     if not found:
-        centres, column_top = shear_box.place(p, reaches, rng)
+        try:
+            centres, column_top = shear_box.place(p, reaches, rng)
+        except ValueError as error:
+            raise SystemExit(f"polyhedra_dem.py: {error}")
         top = column_top + 0.05
         zeros = np.zeros((count, 3))
         bed, _ = new_bed(p["polyhedron_dt"], fill_wall, (centres, stones["orientations"], zeros, zeros), top,

@@ -25,8 +25,11 @@ def dimensions(p):
 def place(p, reaches, rng):
     """Random sequential placement of the stones' enclosing spheres (radii `reaches` [m]), largest first, in a column
     over the box, without overlap: a loose cloud that settles in a short fall. Returns the centres (n, 3) and the
-    column's top [m]."""
+    column's top [m]. Raises ValueError when a stone cannot be placed."""
     L, B, H = p["box_length"], p["box_width"], p["box_height"]
+    if 2.0 * reaches.max() >= min(L, B):
+        raise ValueError(f"direct_shear: the largest stone (reach {reaches.max():.3f} m) does not fit across the "
+                         f"{L} x {B} m box; size_scale {p['size_scale']} is too large for the box")
     order = np.argsort(-reaches)
     centres = np.zeros((len(reaches), 3))
     top = max(H, 2.2 * reaches.max())
@@ -40,6 +43,6 @@ def place(p, reaches, rng):
                 centres[k] = c
                 break
         else:
-            raise RuntimeError(f"direct_shear: cannot place stone {count} of {len(reaches)} (reach {r:.3f} m) in a "
+            raise ValueError(f"direct_shear: cannot place stone {count} of {len(reaches)} (reach {r:.3f} m) in a "
                                f"{L} x {B} m box; size_scale {p['size_scale']} is too large for the box")
     return centres, top
